@@ -1,0 +1,82 @@
+"""Assemble and build kernel programs, cached per (configuration, precision, width, device).
+
+The sources are the OpenCL C files in ``kernels/`` (shipped inside the package as
+``clbrdf.kernels``). ``#include "x.h"`` lines are expanded here, once each, so that the source
+handed to the compiler is self-contained and its text is the cache key.
+"""
+from __future__ import annotations
+
+import re
+from functools import lru_cache
+from importlib import resources
+from pathlib import Path
+
+from .device import Device, DeviceError
+from .spec import Config
+
+_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$', re.M)
+BLOCK = 1024          # samples per work-item in the albedo kernel
+
+
+def kernel_dir() -> Path:
+    try:
+        p = Path(str(resources.files("clbrdf.kernels")))
+        if (p / "common.h").exists():
+            return p
+    except (ModuleNotFoundError, TypeError):
+        pass
+    p = Path(__file__).resolve().parent.parent / "kernels"
+    if (p / "common.h").exists():
+        return p
+    raise FileNotFoundError("clbrdf kernel sources not found (expected clbrdf/kernels or ./kernels)")
+
+
+@lru_cache(maxsize=None)
+def read_kernel(name: str) -> str:
+    return (kernel_dir() / name).read_text()
+
+
+def expand(name: str, seen: set | None = None) -> str:
+    """The file's text with its #include "..." lines replaced by the files (once each)."""
+    seen = set() if seen is None else seen
+    if name in seen:
+        return ""
+    seen.add(name)
+
+    def sub(m):
+        return expand(m.group(1), seen)
+    return f'// ---- {name} ----\n' + _INCLUDE.sub(sub, read_kernel(name))
+
+
+def program_source(cfg: Config, precision: str, width: int, *, estimator: str = "brdf",
+                   rng: str = "philox") -> str:
+    lines = [f"#define CLBRDF_DOUBLE {int(precision == 'double')}", f"#define W {width}",
+             f"#define BLOCK {BLOCK}", f"#define MODEL {cfg.prefix}",
+             f"#define ESTIMATOR ESTIMATOR_{estimator.upper()}", f"#define RNG rand_{rng}"]
+    lines += [f"#define {k} {v}" for k, v in cfg.defines]
+    params = " ".join(f"X({n}, {i})" for i, n in enumerate(cfg.param_names))
+    lines.append(f"#define PARAMS(X) {params}")
+    seen: set = set()
+    body = [expand(f, seen) for f in ("common.h", "rng.h", "warp.h")]
+    field = "\n".join(f"    realN {n};" for n in cfg.param_names)
+    body.append(f"typedef struct {{\n{field}\n}} Params;\n")
+    body.append(expand(cfg.header, seen))
+    body.append(expand("integrators.cl", seen))
+    return "\n".join(lines) + "\n" + "\n".join(body)
+
+
+@lru_cache(maxsize=256)
+def _build(device: Device, source: str):
+    import pyopencl as cl
+    try:
+        return cl.Program(device.context, source).build(options=["-cl-std=CL1.2"])
+    except cl.RuntimeError as e:  # compiler errors: keep the first few
+        lines = [ln for ln in str(e).splitlines() if "error" in ln][:12]
+        raise RuntimeError(f"kernel build failed on {device.info.name}:\n" + "\n".join(lines)) from e
+
+
+def get_program(device: Device, cfg: Config, precision: str, width: int, **kw):
+    if precision == "double" and not device.info.has_fp64:
+        raise DeviceError(f"precision='double' needs cl_khr_fp64, which {device.info.name} lacks; "
+                          "use precision='single' or another device")
+    return _build(device, program_source(cfg, precision, width, **kw))

@@ -1,0 +1,164 @@
+"""OpenCL device selection.
+
+The device is chosen, in this order, by the ``device=`` argument of the Python API or the CLI's
+``--device``, the environment variable ``CLBRDF_DEVICE``, or else the first GPU, else the first
+CPU of any platform. A selector is ``P:D`` (platform and device indices as ``clbrdf devices``
+lists them) or a case-insensitive substring of the device or platform name (``pocl``, ``nvidia``).
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from functools import lru_cache
+
+NO_DEVICE_HELP = (
+    "No working OpenCL device found. clbrdf runs on the CPU through PoCL: "
+    "pip install 'pyopencl[pocl]' gives one without root; where its compiler (LLVM 14) does not "
+    "know the CPU ('unknown target CPU'), install Debian's PoCL: apt-get install pocl-opencl-icd. "
+    "A GPU needs its vendor's OpenCL driver (ICD)."
+)
+
+
+class DeviceError(RuntimeError):
+    pass
+
+
+@dataclass(frozen=True)
+class DeviceInfo:
+    platform_index: int
+    device_index: int
+    name: str
+    platform: str
+    is_gpu: bool
+    has_fp64: bool
+    compute_units: int
+
+    @property
+    def selector(self) -> str:
+        return f"{self.platform_index}:{self.device_index}"
+
+
+def _cl():
+    try:
+        import pyopencl as cl
+    except ImportError as e:  # pragma: no cover - depends on the environment
+        raise DeviceError(NO_DEVICE_HELP) from e
+    return cl
+
+
+def _all_devices():
+    cl = _cl()
+    try:
+        platforms = cl.get_platforms()
+    except cl.Error as e:
+        raise DeviceError(f"{NO_DEVICE_HELP} (OpenCL said: {e})") from e
+    out = []
+    for pi, p in enumerate(platforms):
+        try:
+            devs = p.get_devices()
+        except cl.Error:
+            continue
+        for di, d in enumerate(devs):
+            out.append((DeviceInfo(pi, di, d.name.strip(), p.name.strip(),
+                                   bool(d.type & cl.device_type.GPU),
+                                   "cl_khr_fp64" in d.extensions, d.max_compute_units), d))
+    return out
+
+
+def list_devices() -> list[DeviceInfo]:
+    """All OpenCL devices of all platforms."""
+    return [info for info, _ in _all_devices()]
+
+
+@lru_cache(maxsize=None)
+def compiler_error(key: tuple[int, int]) -> str | None:
+    """None if the device compiles and runs a trivial kernel, else the error text."""
+    cl = _cl()
+    for info, d in _all_devices():
+        if (info.platform_index, info.device_index) != key:
+            continue
+        try:
+            ctx = cl.Context([d])
+            prg = cl.Program(ctx, "__kernel void probe(__global float *a) { a[0] = 2.0f; }").build()
+            q = cl.CommandQueue(ctx)
+            buf = cl.Buffer(ctx, cl.mem_flags.WRITE_ONLY, 4)
+            prg.probe(q, (1,), None, buf)
+            q.finish()
+            return None
+        except Exception as e:  # build failures, missing compilers
+            lines = [ln for ln in str(e).splitlines() if ln.strip()]
+            return next((ln for ln in lines if "error" in ln.lower()), lines[-1] if lines else repr(e))
+    return "no such device"
+
+
+def _pick(selector: str | None):
+    devs = _all_devices()
+    if not devs:
+        raise DeviceError(NO_DEVICE_HELP)
+    if selector is None or selector == "":
+        selector = os.environ.get("CLBRDF_DEVICE") or None
+    if selector is None:
+        # the first GPU, else the first CPU, whose compiler works
+        errors = []
+        for want_gpu in (True, False):
+            for info, d in devs:
+                if info.is_gpu == want_gpu:
+                    err = compiler_error((info.platform_index, info.device_index))
+                    if err is None:
+                        return info, d
+                    errors.append(f"{info.selector} {info.name} [{info.platform}]: {err}")
+        raise DeviceError(NO_DEVICE_HELP + " Devices tried: " + "; ".join(errors))
+    sel = str(selector).strip()
+    if ":" in sel and all(part.isdigit() for part in sel.split(":", 1)):
+        pi, di = (int(x) for x in sel.split(":", 1))
+        for info, d in devs:
+            if (info.platform_index, info.device_index) == (pi, di):
+                return info, d
+    else:
+        for info, d in devs:
+            if sel.lower() in info.name.lower() or sel.lower() in info.platform.lower():
+                return info, d
+    valid = ", ".join(f"{i.selector} ({i.name})" for i, _ in devs)
+    raise DeviceError(f"device={selector!r} matches no OpenCL device; valid: {valid}")
+
+
+class Device:
+    """A device with its context and in-order queue."""
+
+    def __init__(self, info: DeviceInfo, cl_device):
+        cl = _cl()
+        self.info = info
+        self.cl_device = cl_device
+        self.context = cl.Context([cl_device])
+        self.queue = cl.CommandQueue(self.context)
+
+    def default_width(self, precision: str) -> int:
+        env = os.environ.get("CLBRDF_WIDTH")
+        if env:
+            w = int(env)
+            if w not in (1, 2, 4, 8, 16):
+                raise ValueError(f"CLBRDF_WIDTH={env!r} is not one of 1, 2, 4, 8, 16")
+            return w
+        if self.info.is_gpu:
+            return 1
+        # CPU: fill a 512-bit register (16 floats, 8 doubles); PoCL does not vectorise scalar code
+        return 16 if precision == "single" else 8
+
+    def __repr__(self):
+        return f"Device({self.info.selector}: {self.info.name} [{self.info.platform}])"
+
+
+@lru_cache(maxsize=None)
+def _device_for(key: tuple[int, int]) -> Device:
+    for info, d in _all_devices():
+        if (info.platform_index, info.device_index) == key:
+            return Device(info, d)
+    raise DeviceError(NO_DEVICE_HELP)
+
+
+def get_device(selector: str | Device | None = None) -> Device:
+    """The device for a selector (see module docstring); one shared instance per device."""
+    if isinstance(selector, Device):
+        return selector
+    info, _ = _pick(selector)
+    return _device_for((info.platform_index, info.device_index))

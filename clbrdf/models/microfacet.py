@@ -1,0 +1,73 @@
+"""Microfacet reflection with a Beckmann or GGX distribution. Kernel: kernels/microfacet.h.
+
+f = F(wi.h) D(h) G(wi, wo, h) / (4 cos_i cos_o) + kd / pi  (Walter et al. 2007 eq 20;
+MODELS.md section 1). Only the terms a configuration uses are compiled: the Fresnel term follows
+the ``fresnel`` option (or, when it is not given, the Fresnel parameters given: f0 -> schlick,
+eta -> dielectric, eta and k -> conductor), the Lambertian term is compiled when kd is given,
+and alpha_x/alpha_y select the anisotropic form.
+"""
+from ..spec import ModelSpec, Option, Param, ParameterError
+
+ROUGH = (1e-4, 10.0)
+
+PARAMS = (
+    Param("alpha", "roughness (isotropic)", *ROUGH, 0.5),
+    Param("alpha_x", "roughness along the tangent x (anisotropic)", *ROUGH, 0.5),
+    Param("alpha_y", "roughness along the bitangent y (anisotropic)", *ROUGH, 0.5),
+    Param("f0", "Schlick Fresnel reflectance at normal incidence", 0.0, 1.0, 0.04),
+    Param("eta", "relative index of refraction (dielectric) or its real part (conductor)",
+          0.0, 100.0, 1.5, lo_open=True),
+    Param("k", "extinction coefficient (conductor)", 0.0, 100.0, 3.0),
+    Param("kd", "albedo of the added Lambertian term", 0.0, 1.0, 0.0),
+)
+
+OPTIONS = (
+    Option("masking", "masking-shadowing term G",
+           ("correlated", "separable", "vcavity", "none"), "correlated"),
+    Option("fresnel", "Fresnel term F", ("one", "schlick", "dielectric", "conductor"), "one"),
+    Option("sampler", "importance sampler of the specular lobe: visible normals or normals",
+           ("vndf", "ndf"), "vndf"),
+)
+
+FRESNEL_PARAMS = {"one": (), "schlick": ("f0",), "dielectric": ("eta",), "conductor": ("eta", "k")}
+
+
+def configure(dist: str):
+    def fn(opts: dict, given: set):
+        if {"alpha_x", "alpha_y"} & given:
+            if "alpha" in given:
+                raise ParameterError("give either alpha (isotropic) or alpha_x and alpha_y "
+                                     "(anisotropic), not both")
+            rough = ("alpha_x", "alpha_y")
+        else:
+            rough = ("alpha",)
+        fresnel = opts.get("fresnel")
+        if fresnel is None:
+            fresnel = ("conductor" if {"eta", "k"} <= given else "dielectric" if "eta" in given
+                       else "schlick" if "f0" in given else "one")
+        masking = opts.get("masking", "correlated")
+        sampler = opts.get("sampler", "vndf")
+        diffuse = "kd" in given
+        defines = (
+            ("MF_DIST", dist),
+            ("MF_ANISO", str(int(len(rough) == 2))),
+            ("MF_MASKING", f"MASKING_{masking.upper()}"),
+            ("MF_FRESNEL", f"FRESNEL_{fresnel.upper()}"),
+            ("MF_DIFFUSE", str(int(diffuse))),
+            ("MF_SAMPLER", f"SAMPLER_{sampler.upper()}"),
+        )
+        used = rough + FRESNEL_PARAMS[fresnel] + (("kd",) if diffuse else ())
+        return defines, used, {"masking": masking, "fresnel": fresnel, "sampler": sampler}
+    return fn
+
+
+def spec(name: str, title: str, reference: str) -> ModelSpec:
+    return ModelSpec(name=name, title=title, reference=reference, header="microfacet.h",
+                     prefix="microfacet", params=PARAMS, options=OPTIONS,
+                     configure_fn=configure(name))
+
+
+GGX = spec("ggx", "Microfacet, GGX (Trowbridge-Reitz) distribution",
+           "Walter et al. 2007 eq 33 (D), Smith Lambda; Heitz 2018 / Dupuy & Benyoub 2023 (VNDF)")
+BECKMANN = spec("beckmann", "Microfacet, Beckmann distribution",
+                "Walter et al. 2007 eq 25 (D), eq 27 (Lambda); Heitz & d'Eon 2014 (VNDF)")

@@ -1,0 +1,162 @@
+"""How a model describes itself: its parameters, its compile-time options, its kernel header.
+
+A model module builds one ``ModelSpec``. ``ModelSpec.configure`` turns what a user passed into a
+``Config``: the compile-time choices (``defines``), the parameters that configuration uses, and
+their values, validated. The generic integrators see only ``Config``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+
+class ParameterError(ValueError):
+    """A parameter or option with an invalid name or value; the message names the valid range."""
+
+
+@dataclass(frozen=True)
+class Param:
+    name: str
+    meaning: str
+    lo: float
+    hi: float
+    default: float
+    lo_open: bool = False          # lo itself excluded
+
+    def range_text(self) -> str:
+        return f"{'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}]"
+
+    def check(self, values: np.ndarray) -> None:
+        v = np.asarray(values, dtype=np.float64)
+        bad = ~np.isfinite(v) | (v > self.hi) | ((v <= self.lo) if self.lo_open else (v < self.lo))
+        if np.any(bad):
+            first = v.reshape(-1)[np.argmax(bad.reshape(-1))]
+            raise ParameterError(f"parameter {self.name}={first!r} is out of range: "
+                                 f"valid {self.name} is in {self.range_text()} ({self.meaning})")
+
+
+@dataclass(frozen=True)
+class Option:
+    name: str
+    meaning: str
+    choices: tuple[str, ...]
+    default: str
+
+    def check(self, value) -> str:
+        if value not in self.choices:
+            raise ParameterError(f"option {self.name}={value!r} is not valid: "
+                                 f"choose one of {', '.join(self.choices)} ({self.meaning})")
+        return value
+
+
+@dataclass(frozen=True)
+class Config:
+    """One compiled configuration of a model."""
+    model: str                       # model name (``ggx``)
+    header: str                      # kernel header file
+    prefix: str                      # C function prefix: prefix_eval, prefix_pdf, prefix_sample
+    defines: tuple[tuple[str, str], ...]
+    param_names: tuple[str, ...]
+    options: tuple[tuple[str, str], ...]
+
+    def key(self):
+        return (self.header, self.prefix, self.defines, self.param_names)
+
+
+@dataclass
+class ModelSpec:
+    name: str
+    title: str
+    reference: str                   # paper and equations
+    header: str
+    prefix: str
+    params: tuple[Param, ...]
+    options: tuple[Option, ...] = ()
+    # (options, names of parameters given) -> (defines, parameter names used, options resolved)
+    configure_fn: Callable | None = None
+    aliases: dict[str, str] = field(default_factory=dict)
+
+    def param(self, name: str) -> Param:
+        for p in self.params:
+            if p.name == name:
+                return p
+        raise ParameterError(f"model {self.name} has no parameter {name!r}; "
+                             f"parameters: {', '.join(p.name for p in self.params)}; "
+                             f"options: {', '.join(o.name for o in self.options)}")
+
+    def option(self, name: str) -> Option:
+        for o in self.options:
+            if o.name == name:
+                return o
+        raise KeyError(name)
+
+    def split(self, kwargs: dict) -> tuple[dict, dict]:
+        """Separate options (strings) from numeric parameters, checking names."""
+        opts, params = {}, {}
+        option_names = {o.name for o in self.options}
+        for k, v in kwargs.items():
+            if k in option_names:
+                opts[k] = self.option(k).check(v)
+            else:
+                self.param(k)
+                params[k] = v
+        return opts, params
+
+    def configure(self, **kwargs) -> tuple[Config, dict[str, np.ndarray]]:
+        """Config and validated parameter arrays (not yet broadcast) for these arguments."""
+        opts, given = self.split(kwargs)
+        if self.configure_fn is None:
+            defines, used, resolved = (), tuple(p.name for p in self.params), {}
+        else:
+            defines, used, resolved = self.configure_fn(opts, set(given))
+        unused = set(given) - set(used)
+        if unused:
+            name = sorted(unused)[0]
+            raise ParameterError(f"parameter {name} is not used by model {self.name} with "
+                                 f"{', '.join(f'{k}={v}' for k, v in resolved.items()) or 'these options'}")
+        values = {}
+        for name in used:
+            p = self.param(name)
+            v = np.asarray(given.get(name, p.default), dtype=np.float64)
+            p.check(v)
+            values[name] = v
+        cfg = Config(self.name, self.header, self.prefix, tuple(defines), tuple(used),
+                     tuple(sorted(resolved.items())))
+        return cfg, values
+
+
+def finite_or_raise(name: str, a: np.ndarray) -> None:
+    if not np.all(np.isfinite(a)):
+        raise ParameterError(f"{name} contains NaN or Inf")
+
+
+def check_directions(name: str, w: np.ndarray, tol: float = 1e-4, allow_below: bool = False) -> np.ndarray:
+    """Unit vectors, shape (..., 3), in the upper hemisphere (z > 0) unless allow_below."""
+    w = np.asarray(w, dtype=np.float64)
+    if w.shape[-1:] != (3,):
+        raise ParameterError(f"{name} must have shape (..., 3), got {w.shape}")
+    finite_or_raise(name, w)
+    norm = np.linalg.norm(w, axis=-1)
+    bad = np.abs(norm - 1) > tol
+    if np.any(bad):
+        i = np.argmax(bad.reshape(-1))
+        raise ParameterError(f"{name}={w.reshape(-1, 3)[i].tolist()} is not a unit vector "
+                             f"(length {norm.reshape(-1)[i]:.6g}; valid: length 1 within {tol:g})")
+    if not allow_below and np.any(w[..., 2] <= 0):
+        i = np.argmax((w[..., 2] <= 0).reshape(-1))
+        raise ParameterError(f"{name}={w.reshape(-1, 3)[i].tolist()} is below the horizon: "
+                             f"valid directions have z = cos(theta) in (0, 1]")
+    return w
+
+
+def check_mu(mu) -> np.ndarray:
+    mu = np.asarray(mu, dtype=np.float64)
+    bad = ~np.isfinite(mu) | (mu <= 0) | (mu > 1)
+    if np.any(bad):
+        v = mu.reshape(-1)[np.argmax(bad.reshape(-1))]
+        raise ParameterError(f"mu={v!r} is out of range: valid mu = cos(theta_o) is in (0, 1] "
+                             f"(a direction above the horizon)")
+    return mu
+

@@ -1,0 +1,141 @@
+/* clbrdf common definitions: scalar type, lane width, vectors, math helpers.
+ *
+ * Build options (all optional):
+ *   -DCLBRDF_DOUBLE=1   double precision (needs cl_khr_fp64); single otherwise
+ *   -DW=16              lanes per work-item: 1 (scalar, GPU), 2, 4, 8 or 16 (CPU SIMD)
+ *
+ * Every function works on `realN`, a vector of W lanes (or a scalar when W == 1),
+ * and is branch-free: lane masks come from comparisons and are consumed by select().
+ * A comparison yields 1/0 on scalars and -1/0 on vectors; select(a, b, m) picks b
+ * where m is true in both cases, and &, |, ! combine masks correctly in both cases.
+ */
+#ifndef CLBRDF_COMMON_H
+#define CLBRDF_COMMON_H
+
+#ifndef W
+#define W 1
+#endif
+
+#define CAT_(a, b) a##b
+#define CAT(a, b) CAT_(a, b)
+
+#if CLBRDF_DOUBLE
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+#define REAL double
+#define MASK long
+#define REAL_EPS DBL_EPSILON
+#else
+#define REAL float
+#define MASK int
+#define REAL_EPS FLT_EPSILON
+#endif
+
+typedef REAL real_t;
+
+#if W == 1
+typedef real_t realN;
+typedef int maskN;                 /* scalar comparisons give int in both precisions */
+typedef uint uintN;
+#define LANE_IDS ((uint)0)
+#define VLOAD(p) (*(p))
+#define VSTORE(v, p) (*(p) = (v))
+#define HSUM(v) (v)
+#define TO_MASK(m) (m)
+#else
+typedef CAT(REAL, W) realN;
+typedef CAT(MASK, W) maskN;
+typedef CAT(uint, W) uintN;
+#define VLOAD(p) CAT(vload, W)(0, (p))
+#define VSTORE(v, p) CAT(vstore, W)((v), 0, (p))
+/* an integer comparison's mask, as the mask type of realN (long lanes in double) */
+#define TO_MASK(m) CAT(convert_, CAT(MASK, W))(m)
+#endif
+
+#if W == 1
+#define convert_realN CAT(convert_, REAL)
+#else
+#define convert_realN CAT(convert_, CAT(REAL, W))
+#endif
+
+#if W == 2
+#define LANE_IDS ((uint2)(0, 1))
+#elif W == 4
+#define LANE_IDS ((uint4)(0, 1, 2, 3))
+#elif W == 8
+#define LANE_IDS ((uint8)(0, 1, 2, 3, 4, 5, 6, 7))
+#elif W == 16
+#define LANE_IDS ((uint16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
+#endif
+
+/* Horizontal sum in a fixed order, so that a result does not depend on the device. */
+#if W == 2
+#define HSUM(v) ((v).s0 + (v).s1)
+#elif W == 4
+#define HSUM(v) (((v).s0 + (v).s1) + ((v).s2 + (v).s3))
+#elif W == 8
+#define HSUM(v) (HSUM4((v).lo) + HSUM4((v).hi))
+#elif W == 16
+#define HSUM(v) (HSUM8((v).lo) + HSUM8((v).hi))
+#endif
+#define HSUM4(v) (((v).s0 + (v).s1) + ((v).s2 + (v).s3))
+#define HSUM8(v) (HSUM4((v).lo) + HSUM4((v).hi))
+
+#define PI_R ((real_t)3.14159265358979323846)
+#define INV_PI_R ((real_t)0.31830988618379067154)
+#define INV_SQRT_PI_R ((real_t)0.56418958354775628695)
+
+typedef struct { realN x, y, z; } vec3;
+
+inline vec3 v3(realN x, realN y, realN z) { vec3 r = {x, y, z}; return r; }
+inline vec3 add3(vec3 a, vec3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
+inline vec3 sub3(vec3 a, vec3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
+inline vec3 scale3(vec3 a, realN s) { return v3(a.x * s, a.y * s, a.z * s); }
+inline realN dot3(vec3 a, vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+inline vec3 normalize3(vec3 a) { return scale3(a, rsqrt(dot3(a, a))); }
+inline vec3 select3(vec3 a, vec3 b, maskN m)
+{
+    return v3(select(a.x, b.x, m), select(a.y, b.y, m), select(a.z, b.z, m));
+}
+/* Mirror reflection of w about the unit normal m. */
+inline vec3 reflect3(vec3 w, vec3 m) { return sub3(scale3(m, 2 * dot3(w, m)), w); }
+
+inline realN sqr(realN x) { return x * x; }
+inline realN safe_sqrt(realN x) { return sqrt(fmax(x, (realN)0)); }
+
+/* A sampled direction: wi, the estimator weight f cos(theta_i) / pdf, and pdf (1/sr). */
+typedef struct { vec3 wi; realN weight; realN pdf; } BSample;
+
+/* Inverse error function. Giles, "Approximating the erfinv function" (GPU Gems 4, 2010),
+ * single-precision polynomials; in double precision refined by two Newton steps on erf. */
+inline realN erfinv_r(realN x)
+{
+    realN w = -log((1 - x) * (1 + x));
+    realN a = w - (realN)2.5;
+    realN p = (realN)2.81022636e-08;
+    p = (realN)3.43273939e-07 + p * a;
+    p = (realN)-3.5233877e-06 + p * a;
+    p = (realN)-4.39150654e-06 + p * a;
+    p = (realN)0.00021858087 + p * a;
+    p = (realN)-0.00125372503 + p * a;
+    p = (realN)-0.00417768164 + p * a;
+    p = (realN)0.246640727 + p * a;
+    p = (realN)1.50140941 + p * a;
+    realN b = sqrt(w) - 3;
+    realN q = (realN)-0.000200214257;
+    q = (realN)0.000100950558 + q * b;
+    q = (realN)0.00134934322 + q * b;
+    q = (realN)-0.00367342844 + q * b;
+    q = (realN)0.00573950773 + q * b;
+    q = (realN)-0.0076224613 + q * b;
+    q = (realN)0.00943887047 + q * b;
+    q = (realN)1.00167406 + q * b;
+    q = (realN)2.83297682 + q * b;
+    realN r = select(q, p, w < 5) * x;
+#if CLBRDF_DOUBLE
+    for (int i = 0; i < 2; ++i)
+        r -= (erf(r) - x) / (2 * INV_SQRT_PI_R * exp(-r * r));
+#endif
+    return r;
+}
+
+#endif

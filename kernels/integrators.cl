@@ -1,0 +1,154 @@
+/* Generic kernels, instantiated per model configuration. They know no model: a model header
+ * provides MODEL_eval, MODEL_pdf and MODEL_sample on a Params struct.
+ *
+ * The host defines before this file:
+ *   PARAMS(X)   X(name, index) for each parameter of the configuration
+ *   MODEL       the model's function prefix (lambert, microfacet, ...)
+ *   ESTIMATOR   ESTIMATOR_UNIFORM | ESTIMATOR_COSINE | ESTIMATOR_BRDF | ESTIMATOR_MIS
+ *   RNG         rand_philox | rand_sobol
+ *   BLOCK       samples per work-item in the albedo kernel (a multiple of W)
+ * and includes the model header after common.h, rng.h, warp.h (see clbrdf/build.py).
+ *
+ * Parameter arrays are structure-of-arrays: parameter j of query i at P[j * stride + i].
+ */
+
+#define ESTIMATOR_UNIFORM 0
+#define ESTIMATOR_COSINE 1
+#define ESTIMATOR_BRDF 2
+#define ESTIMATOR_MIS 3
+
+#define BRDF(fn) CAT(MODEL, CAT(_, fn))
+
+/* W consecutive queries starting at i (batch kernels). */
+inline Params load_params(const global real_t *P, ulong stride, ulong i)
+{
+    Params p;
+#define LOAD_ONE(name, j) p.name = VLOAD(P + (j) * stride + i);
+    PARAMS(LOAD_ONE)
+#undef LOAD_ONE
+    return p;
+}
+
+/* One query broadcast to all lanes (albedo kernel: lanes are samples of one point). */
+inline Params splat_params(const global real_t *P, ulong stride, ulong i)
+{
+    Params p;
+#define SPLAT_ONE(name, j) p.name = (realN)P[(j) * stride + i];
+    PARAMS(SPLAT_ONE)
+#undef SPLAT_ONE
+    return p;
+}
+
+inline vec3 load_dir(const global real_t *D, ulong stride, ulong i)
+{
+    return v3(VLOAD(D + i), VLOAD(D + stride + i), VLOAD(D + 2 * stride + i));
+}
+
+inline void store_dir(vec3 v, global real_t *D, ulong stride, ulong i)
+{
+    VSTORE(v.x, D + i);
+    VSTORE(v.y, D + stride + i);
+    VSTORE(v.z, D + 2 * stride + i);
+}
+
+/* ---- batch kernels: work-item g handles queries [g W, g W + W); n is padded to a multiple of W ---- */
+
+__kernel void eval_batch(const global real_t *P, const global real_t *WI, const global real_t *WO,
+                         const ulong n, global real_t *out)
+{
+    ulong i = get_global_id(0) * W;
+    if (i >= n) return;
+    Params p = load_params(P, n, i);
+    VSTORE(BRDF(eval)(&p, load_dir(WI, n, i), load_dir(WO, n, i)), out + i);
+}
+
+__kernel void pdf_batch(const global real_t *P, const global real_t *WO, const global real_t *WI,
+                        const ulong n, global real_t *out)
+{
+    ulong i = get_global_id(0) * W;
+    if (i >= n) return;
+    Params p = load_params(P, n, i);
+    VSTORE(BRDF(pdf)(&p, load_dir(WO, n, i), load_dir(WI, n, i)), out + i);
+}
+
+/* U: uniform numbers, 4 per query (structure-of-arrays), so that callers control the stream. */
+__kernel void sample_batch(const global real_t *P, const global real_t *WO, const global real_t *U,
+                           const ulong n, global real_t *WI, global real_t *weight, global real_t *pdf)
+{
+    ulong i = get_global_id(0) * W;
+    if (i >= n) return;
+    Params p = load_params(P, n, i);
+    rand4 u = {VLOAD(U + i), VLOAD(U + n + i), VLOAD(U + 2 * n + i), VLOAD(U + 3 * n + i)};
+    BSample s = BRDF(sample)(&p, load_dir(WO, n, i), u);
+    store_dir(s.wi, WI, n, i);
+    VSTORE(s.weight, weight + i);
+    VSTORE(s.pdf, pdf + i);
+}
+
+/* Uniform numbers from the library's generators, 4 per query (for tests and users). */
+__kernel void random_batch(const ulong n, const uint point, const uint stream, const uint seed_lo,
+                           const uint seed_hi, global real_t *U)
+{
+    ulong i = get_global_id(0) * W;
+    if (i >= n) return;
+    rand4 u = RNG((uintN)(uint)i + LANE_IDS, point, stream, seed_lo, seed_hi);
+    VSTORE(u.u0, U + i);
+    VSTORE(u.u1, U + n + i);
+    VSTORE(u.u2, U + 2 * n + i);
+    VSTORE(u.u3, U + 3 * n + i);
+}
+
+/* ---- directional albedo ---- */
+
+/* One estimate of E(wo) = integral f cos dwi from the four numbers u. */
+inline realN albedo_estimate(const Params *p, vec3 wo, rand4 u)
+{
+#if ESTIMATOR == ESTIMATOR_UNIFORM
+    vec3 wi = square_to_uniform_hemisphere(u.u0, u.u1);
+    return BRDF(eval)(p, wi, wo) * wi.z * (2 * PI_R);
+#elif ESTIMATOR == ESTIMATOR_COSINE
+    vec3 wi = square_to_cosine_hemisphere(u.u0, u.u1);
+    return BRDF(eval)(p, wi, wo) * PI_R;
+#elif ESTIMATOR == ESTIMATOR_BRDF
+    return BRDF(sample)(p, wo, u).weight;
+#else
+    /* one-sample multiple importance sampling, balance heuristic (Veach 1997 section 9.2.4):
+     * technique chosen with probability 1/2 by u3; the estimate is f cos / (pdf_brdf + pdf_cos) / 2 */
+    vec3 wb = BRDF(sample)(p, wo, u).wi;
+    vec3 wc = square_to_cosine_hemisphere(u.u0, u.u1);
+    vec3 wi = select3(wc, wb, u.u3 < (realN)0.5);
+    realN q = (realN)0.5 * (BRDF(pdf)(p, wo, wi) + cosine_hemisphere_pdf(wi));
+    realN v = BRDF(eval)(p, wi, wo) * wi.z / q;
+    return select((realN)0, v, (wi.z > 0) & (q > 0));
+#endif
+}
+
+/* Work-item g: point g / blocks, block g % blocks, samples [block BLOCK, block BLOCK + BLOCK) of
+ * the point's stream; samples at or past `samples` count as 0. Writes the block's sum and sum of
+ * squares; the host adds blocks in a fixed order. */
+__kernel void albedo_blocks(const global real_t *P, const global real_t *WO, const ulong npoints,
+                            const ulong point0, const uint blocks, const uint samples,
+                            const uint seed_lo, const uint seed_hi, const uint blocks_per_stream,
+                            global real_t *out)
+{
+    ulong g = get_global_id(0);
+    ulong local_point = g / blocks;
+    uint block = (uint)(g % blocks);
+    if (local_point >= npoints) return;
+    ulong point = point0 + local_point;
+    Params p = splat_params(P, npoints, local_point);
+    vec3 wo = v3((realN)WO[local_point], (realN)WO[npoints + local_point], (realN)WO[2 * npoints + local_point]);
+    uint stream = block / blocks_per_stream;
+    uint first = (block % blocks_per_stream) * BLOCK;
+    realN sum = 0, sum2 = 0;
+    for (uint k = 0; k < BLOCK; k += W) {
+        uintN idx = (uintN)(first + k) + LANE_IDS;
+        rand4 u = RNG(idx, (uint)point, stream, seed_lo, seed_hi);
+        realN v = albedo_estimate(&p, wo, u);
+        v = select((realN)0, v, TO_MASK(idx < (uintN)samples));
+        sum += v;
+        sum2 += v * v;
+    }
+    out[2 * g] = HSUM(sum);
+    out[2 * g + 1] = HSUM(sum2);
+}

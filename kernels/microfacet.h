@@ -1,0 +1,164 @@
+/* Microfacet reflection BRDF (Cook & Torrance 1982; Walter et al. 2007), optional Lambertian term.
+ *
+ *   f(wi, wo) = F(wi . h) D(h) G(wi, wo, h) / (4 cos_i cos_o)  [+ kd / pi]
+ *
+ * | parameter        | meaning                                   | range        |
+ * |------------------|-------------------------------------------|--------------|
+ * | alpha            | roughness (isotropic)                     | [1e-4, 10]   |
+ * | alpha_x, alpha_y | roughness along x and y (anisotropic)     | [1e-4, 10]   |
+ * | f0               | Schlick reflectance at normal incidence   | [0, 1]       |
+ * | eta              | relative index (dielectric), or real part | (0, 100]     |
+ * | k                | extinction coefficient (conductor)        | [0, 100]     |
+ * | kd               | albedo of the Lambertian term             | [0, 1]       |
+ *
+ * Compile-time configuration; only the chosen terms are compiled:
+ *   MF_DIST     ggx | beckmann
+ *   MF_ANISO    0: alpha; 1: alpha_x, alpha_y
+ *   MF_MASKING  MASKING_NONE | MASKING_VCAVITY | MASKING_SEPARABLE | MASKING_CORRELATED
+ *   MF_FRESNEL  FRESNEL_ONE | FRESNEL_SCHLICK | FRESNEL_DIELECTRIC | FRESNEL_CONDUCTOR
+ *   MF_DIFFUSE  0 | 1
+ *   MF_SAMPLER  SAMPLER_NDF | SAMPLER_VNDF
+ *
+ * Sampling: h from the distribution of normals or of visible normals, wi = reflect(wo, h),
+ * pdf(wi) = pdf(h) / (4 wo . h). With the Lambertian term the cosine lobe is chosen with
+ * probability kd / (kd + F(cos_o)) and the density is the mixture of both.
+ */
+#ifndef CLBRDF_MICROFACET_H
+#define CLBRDF_MICROFACET_H
+
+#include "fresnel.h"
+#include "microfacet_distributions.h"
+
+#define MASKING_NONE 0
+#define MASKING_VCAVITY 1
+#define MASKING_SEPARABLE 2
+#define MASKING_CORRELATED 3
+#define FRESNEL_ONE 0
+#define FRESNEL_SCHLICK 1
+#define FRESNEL_DIELECTRIC 2
+#define FRESNEL_CONDUCTOR 3
+#define SAMPLER_NDF 0
+#define SAMPLER_VNDF 1
+
+#define MF(fn) CAT(MF_DIST, CAT(_, fn))
+
+inline Microfacet mf_distribution(const Params *p)
+{
+#if MF_ANISO
+    Microfacet m = {p->alpha_x, p->alpha_y};
+#else
+    Microfacet m = {p->alpha, p->alpha};
+#endif
+    return m;
+}
+
+inline realN mf_fresnel(const Params *p, realN c)
+{
+#if MF_FRESNEL == FRESNEL_SCHLICK
+    return fresnel_schlick(p->f0, c);
+#elif MF_FRESNEL == FRESNEL_DIELECTRIC
+    return fresnel_dielectric(p->eta, c);
+#elif MF_FRESNEL == FRESNEL_CONDUCTOR
+    return fresnel_conductor(p->eta, p->k, c);
+#else
+    return (realN)1;
+#endif
+}
+
+inline realN mf_G1(Microfacet m, vec3 w) { return 1 / (1 + MF(Lambda)(m, w)); }
+
+/* Masking-shadowing G(wi, wo, h) (MODELS.md section 1). */
+inline realN mf_G(Microfacet m, vec3 wi, vec3 wo, vec3 h)
+{
+#if MF_MASKING == MASKING_CORRELATED
+    return 1 / (1 + MF(Lambda)(m, wi) + MF(Lambda)(m, wo));
+#elif MF_MASKING == MASKING_SEPARABLE
+    return mf_G1(m, wi) * mf_G1(m, wo);
+#elif MF_MASKING == MASKING_VCAVITY
+    realN k = 2 * h.z / dot3(wo, h);
+    return fmin((realN)1, k * fmin(wi.z, wo.z));
+#else
+    return (realN)1;
+#endif
+}
+
+/* Probability of the Lambertian lobe in the sampling mixture. */
+inline realN mf_diffuse_prob(const Params *p, vec3 wo)
+{
+#if MF_DIFFUSE
+    realN fs = mf_fresnel(p, wo.z);
+    realN s = p->kd + fs;
+    return select(p->kd / s, (realN)0, s <= 0);
+#else
+    return (realN)0;
+#endif
+}
+
+inline realN microfacet_eval(const Params *p, vec3 wi, vec3 wo)
+{
+    Microfacet m = mf_distribution(p);
+    vec3 h = normalize3(add3(wi, wo));
+    realN f = mf_fresnel(p, dot3(wi, h)) * MF(D)(m, h) * mf_G(m, wi, wo, h) / (4 * wi.z * wo.z);
+#if MF_DIFFUSE
+    f += p->kd * INV_PI_R;
+#endif
+    return select((realN)0, f, (wi.z > 0) & (wo.z > 0));
+}
+
+/* Density of the specular lobe's sampler, per unit solid angle of wi. */
+inline realN mf_lobe_pdf(Microfacet m, vec3 wo, vec3 h)
+{
+#if MF_SAMPLER == SAMPLER_VNDF
+    return mf_G1(m, wo) * MF(D)(m, h) / (4 * wo.z);
+#else
+    return MF(D)(m, h) * h.z / (4 * dot3(wo, h));
+#endif
+}
+
+inline realN microfacet_pdf(const Params *p, vec3 wo, vec3 wi)
+{
+    Microfacet m = mf_distribution(p);
+    vec3 h = normalize3(add3(wi, wo));
+    realN pdf = mf_lobe_pdf(m, wo, h);
+#if MF_DIFFUSE
+    realN pd = mf_diffuse_prob(p, wo);
+    pdf = pd * wi.z * INV_PI_R + (1 - pd) * pdf;
+#endif
+    return select((realN)0, pdf, (wi.z > 0) & (wo.z > 0));
+}
+
+inline BSample microfacet_sample(const Params *p, vec3 wo, rand4 u)
+{
+    Microfacet m = mf_distribution(p);
+#if MF_SAMPLER == SAMPLER_VNDF
+    vec3 h = MF(sample_vndf)(m, wo, u.u0, u.u1);
+#else
+    vec3 h = MF(sample_ndf)(m, u.u0, u.u1);
+#endif
+    BSample s;
+    s.wi = reflect3(wo, h);
+    maskN ok = (s.wi.z > 0) & (wo.z > 0);
+#if MF_DIFFUSE
+    /* mixture with the cosine lobe: weight = f cos / mixture pdf */
+    realN pd = mf_diffuse_prob(p, wo);
+    s.wi = select3(s.wi, square_to_cosine_hemisphere(u.u0, u.u1), u.u2 < pd);
+    s.pdf = microfacet_pdf(p, wo, s.wi);
+    ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
+    s.weight = microfacet_eval(p, s.wi, wo) * s.wi.z / s.pdf;
+#else
+    /* f cos_i / pdf with D cancelled: vndf F G / G1(wo); ndf F G (wo.h) / (cos_o cos_h) */
+    realN F = mf_fresnel(p, dot3(wo, h));
+    realN G = mf_G(m, s.wi, wo, h);
+    s.pdf = mf_lobe_pdf(m, wo, h);
+#if MF_SAMPLER == SAMPLER_VNDF
+    s.weight = F * G * (1 + MF(Lambda)(m, wo));
+#else
+    s.weight = F * G * dot3(wo, h) / (wo.z * h.z);
+#endif
+#endif
+    s.weight = select((realN)0, s.weight, ok);
+    s.pdf = select((realN)0, s.pdf, ok);
+    return s;
+}
+
+#endif

@@ -1,0 +1,133 @@
+/* Microfacet normal distributions: Beckmann and GGX (Trowbridge-Reitz), anisotropic.
+ *
+ * Each distribution provides, in the manner of pbrt-v4's TrowbridgeReitzDistribution:
+ *   D(m)                    density of normals, integral D(m) (m . n) dm = 1
+ *   Lambda(w)               Smith auxiliary function, G1(w) = 1 / (1 + Lambda(w))
+ *   sample_ndf(u0, u1)      m with density D(m) (m . n)
+ *   sample_vndf(w, u0, u1)  m with density G1(w) max(0, w . m) D(m) / (w . n)
+ * Roughness: alpha_x, alpha_y scale the slopes along x and y (MODELS.md section 1).
+ */
+#ifndef CLBRDF_MICROFACET_DISTRIBUTIONS_H
+#define CLBRDF_MICROFACET_DISTRIBUTIONS_H
+
+typedef struct { realN ax, ay; } Microfacet;
+
+/* Squared roughness along the azimuth of w, times tan^2 theta_w: (wx^2 ax^2 + wy^2 ay^2) / wz^2. */
+inline realN projected_roughness2(Microfacet m, vec3 w)
+{
+    return sqr(w.x * m.ax) + sqr(w.y * m.ay);
+}
+
+/* The unit normal of the slope (sx, sy). */
+inline vec3 slope_to_normal(realN sx, realN sy) { return normalize3(v3(-sx, -sy, (realN)1)); }
+
+/* ---- GGX: Walter et al. 2007 eq 33, anisotropic form of Heitz 2014 eq 85 ----
+ * D = 1 / (pi ax ay (x^2/ax^2 + y^2/ay^2 + z^2)^2), which needs no division by cos theta. */
+inline realN ggx_D(Microfacet m, vec3 h)
+{
+    realN e = sqr(h.x / m.ax) + sqr(h.y / m.ay) + h.z * h.z;
+    return select((realN)0, INV_PI_R / (m.ax * m.ay * e * e), h.z > 0);
+}
+
+/* Lambda = (-1 + sqrt(1 + a^2 tan^2))/2, written as t / (2 (z^2 + z sqrt(z^2 + t))) with
+ * t = a^2 tan^2 z^2: no cancellation for small t. */
+inline realN ggx_Lambda(Microfacet m, vec3 w)
+{
+    realN t = projected_roughness2(m, w), z = fabs(w.z);
+    return t / (2 * (z * z + z * sqrt(z * z + t)));
+}
+
+/* Slopes of GGX are a bivariate Student-t with 2 degrees of freedom: r^2 = u / (1 - u). */
+inline vec3 ggx_sample_ndf(Microfacet m, realN u0, realN u1)
+{
+    realN r = sqrt(u0 / (1 - u0));
+    realN c, s = sincos(2 * PI_R * u1, &c);
+    return slope_to_normal(m.ax * r * c, m.ay * r * s);
+}
+
+/* Visible normals by spherical caps (Dupuy & Benyoub 2023): uniform point on the cap of the
+ * unit sphere around the stretched direction, unstretched. */
+inline vec3 ggx_sample_vndf(Microfacet m, vec3 w, realN u0, realN u1)
+{
+    vec3 ws = normalize3(v3(w.x * m.ax, w.y * m.ay, w.z));
+    realN z = (1 - u1) * (1 + ws.z) - ws.z;
+    realN sin_t = safe_sqrt(1 - z * z);
+    realN c, s = sincos(2 * PI_R * u0, &c);
+    vec3 hs = v3(sin_t * c + ws.x, sin_t * s + ws.y, z + ws.z);
+    return normalize3(v3(hs.x * m.ax, hs.y * m.ay, fmax(hs.z, (realN)0)));
+}
+
+/* ---- Beckmann: Walter et al. 2007 eq 25, anisotropic ----
+ * D = exp(-e) / (pi ax ay cos^4), e = (x^2/ax^2 + y^2/ay^2) / z^2. Where exp(-e) underflows
+ * the value is an exact 0 (this also avoids 0/0 at grazing h). */
+inline realN beckmann_D(Microfacet m, vec3 h)
+{
+    realN z2 = h.z * h.z;
+    realN e = (sqr(h.x / m.ax) + sqr(h.y / m.ay)) / z2;
+    realN d = exp(-e) / (PI_R * m.ax * m.ay * z2 * z2);
+    return select((realN)0, d, (h.z > 0) & (e < (realN)(CLBRDF_DOUBLE ? 700 : 85)));
+}
+
+/* Lambda = (erf(a) - 1)/2 + exp(-a^2) / (2 a sqrt(pi)), a = 1 / (alpha tan theta) (Walter 2007
+ * eq 27 with Smith), written with erfc to avoid 1 - erf(a) cancellation. */
+inline realN beckmann_Lambda(Microfacet m, vec3 w)
+{
+    realN a = fabs(w.z) * rsqrt(projected_roughness2(m, w));   /* inf at normal incidence */
+    realN l = (realN)0.5 * (exp(-a * a) * INV_SQRT_PI_R / a - erfc(a));
+    return select(l, (realN)0, isinf(a));
+}
+
+/* Slopes of Beckmann are Gaussian with variance alpha^2 / 2 per axis. */
+inline vec3 beckmann_sample_ndf(Microfacet m, realN u0, realN u1)
+{
+    realN r = sqrt(-log1p(-u0));
+    realN c, s = sincos(2 * PI_R * u1, &c);
+    return slope_to_normal(m.ax * r * c, m.ay * r * s);
+}
+
+#ifndef BECKMANN_NEWTON_STEPS
+#define BECKMANN_NEWTON_STEPS (CLBRDF_DOUBLE ? 10 : 6)
+#endif
+
+/* Visible slopes of the unit isotropic Beckmann distribution for a direction at cos theta
+ * in the x-z plane (Heitz & d'Eon 2014 section 4, with Jakob's safeguarded Newton inversion of
+ * the x-slope CDF in the erf domain, as in Mitsuba and pbrt-v3; here branch-free, fixed steps).
+ * Returns the slopes in (sx, sy). */
+inline void beckmann_visible_slopes11(realN cos_t, realN u0, realN u1, realN *sx, realN *sy)
+{
+    realN sin_t = safe_sqrt(1 - cos_t * cos_t);
+    realN tan_t = sin_t / cos_t, cot_t = cos_t / sin_t;      /* cot = inf at normal incidence */
+    realN lo = -1 + REAL_EPS, hi = fmin(erf(cot_t), 1 - REAL_EPS);
+    realN th = acos(cos_t);
+    realN fit = 1 + th * ((realN)-0.876 + th * ((realN)0.4265 - (realN)0.0594 * th));
+    realN b = hi - (1 + hi) * exp(fit * log1p(-u0));
+    realN tail = select(tan_t * exp(-cot_t * cot_t), (realN)0, isinf(cot_t));
+    realN norm = 1 / (1 + hi + INV_SQRT_PI_R * tail);
+    for (int i = 0; i < BECKMANN_NEWTON_STEPS; ++i) {
+        b = select(b, (realN)0.5 * (lo + hi), !((b >= lo) & (b <= hi)));
+        realN s = erfinv_r(b);
+        realN value = norm * (1 + b + INV_SQRT_PI_R * tan_t * exp(-s * s)) - u0;
+        realN deriv = norm * (1 - s * tan_t);
+        maskN above = value > 0;
+        hi = select(hi, b, above);
+        lo = select(b, lo, above);
+        b -= value / deriv;
+    }
+    b = clamp(b, lo, hi);
+    *sx = erfinv_r(b);
+    *sy = erfinv_r(2 * u1 - 1);
+}
+
+inline vec3 beckmann_sample_vndf(Microfacet m, vec3 w, realN u0, realN u1)
+{
+    vec3 ws = normalize3(v3(w.x * m.ax, w.y * m.ay, w.z));
+    realN sx, sy;
+    beckmann_visible_slopes11(ws.z, u0, u1, &sx, &sy);
+    /* rotate from the x-z plane to the azimuth of ws, then unstretch */
+    realN rxy = sqrt(ws.x * ws.x + ws.y * ws.y);
+    realN cp = select(ws.x / rxy, (realN)1, rxy == 0), sp = select(ws.y / rxy, (realN)0, rxy == 0);
+    realN tx = cp * sx - sp * sy, ty = sp * sx + cp * sy;
+    return slope_to_normal(m.ax * tx, m.ay * ty);
+}
+
+#endif

@@ -1,0 +1,25 @@
+/* Square-to-hemisphere warps and their densities (solid angle, 1/sr). */
+#ifndef CLBRDF_WARP_H
+#define CLBRDF_WARP_H
+
+inline vec3 polar_dir(realN cos_t, realN sin_t, realN u_phi)
+{
+    realN c, s = sincos(2 * PI_R * u_phi, &c);
+    return v3(sin_t * c, sin_t * s, cos_t);
+}
+
+/* Uniform on the upper hemisphere: pdf = 1 / (2 pi). */
+inline vec3 square_to_uniform_hemisphere(realN u0, realN u1)
+{
+    return polar_dir(u0, sqrt((1 - u0) * (1 + u0)), u1);
+}
+inline realN uniform_hemisphere_pdf(vec3 w) { return select((realN)0, (realN)(0.5 * INV_PI_R), w.z > 0); }
+
+/* Cosine-weighted (Malley's method, polar map): pdf = cos(theta) / pi. */
+inline vec3 square_to_cosine_hemisphere(realN u0, realN u1)
+{
+    return polar_dir(sqrt(1 - u0), sqrt(u0), u1);
+}
+inline realN cosine_hemisphere_pdf(vec3 w) { return fmax(w.z, (realN)0) * INV_PI_R; }
+
+#endif
