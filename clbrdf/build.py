@@ -52,7 +52,8 @@ def program_source(cfg: Config, precision: str, width: int, *, estimator: str = 
                    rng: str = "philox") -> str:
     lines = [f"#define CLBRDF_DOUBLE {int(precision == 'double')}", f"#define W {width}",
              f"#define BLOCK {BLOCK}", f"#define MODEL {cfg.prefix}",
-             f"#define ESTIMATOR ESTIMATOR_{estimator.upper()}", f"#define RNG rand_{rng}"]
+             f"#define ESTIMATOR ESTIMATOR_{estimator.upper()}", f"#define RNG rand_{rng}",
+             f"#define RNG_PHILOX {int(rng == 'philox')}"]
     lines += [f"#define {k} {v}" for k, v in cfg.defines]
     params = " ".join(f"X({n}, {i})" for i, n in enumerate(cfg.param_names))
     lines.append(f"#define PARAMS(X) {params}")

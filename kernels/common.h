@@ -5,9 +5,10 @@
  *   -DW=16              lanes per work-item: 1 (scalar, GPU), 2, 4, 8 or 16 (CPU SIMD)
  *
  * Every function works on `realN`, a vector of W lanes (or a scalar when W == 1),
- * and is branch-free: lane masks come from comparisons and are consumed by select().
- * A comparison yields 1/0 on scalars and -1/0 on vectors; select(a, b, m) picks b
- * where m is true in both cases, and &, |, ! combine masks correctly in both cases.
+ * and is branch-free: lane masks come from comparisons and are consumed by sel(), which is
+ * select() on vectors and ?: on scalars. A comparison yields 1/0 on scalars and -1/0 on
+ * vectors; sel(a, b, m) picks b where m is true in both cases, and &, |, ! combine masks
+ * correctly in both cases.
  */
 #ifndef CLBRDF_COMMON_H
 #define CLBRDF_COMMON_H
@@ -36,19 +37,28 @@ typedef REAL real_t;
 typedef real_t realN;
 typedef int maskN;                 /* scalar comparisons give int in both precisions */
 typedef uint uintN;
+typedef ulong ulongN;
+#define convert_uintN convert_uint
+#define convert_ulongN convert_ulong
 #define LANE_IDS ((uint)0)
 #define VLOAD(p) (*(p))
 #define VSTORE(v, p) (*(p) = (v))
 #define HSUM(v) (v)
 #define TO_MASK(m) (m)
+/* scalar comparisons give int even for doubles, which select() rejects: use ?: */
+#define sel(a, b, m) ((m) ? (b) : (a))
 #else
 typedef CAT(REAL, W) realN;
 typedef CAT(MASK, W) maskN;
 typedef CAT(uint, W) uintN;
+typedef CAT(ulong, W) ulongN;
+#define convert_uintN CAT(convert_uint, W)
+#define convert_ulongN CAT(convert_ulong, W)
 #define VLOAD(p) CAT(vload, W)(0, (p))
 #define VSTORE(v, p) CAT(vstore, W)((v), 0, (p))
 /* an integer comparison's mask, as the mask type of realN (long lanes in double) */
 #define TO_MASK(m) CAT(convert_, CAT(MASK, W))(m)
+#define sel(a, b, m) select((a), (b), (m))
 #endif
 
 #if W == 1
@@ -94,7 +104,7 @@ inline realN dot3(vec3 a, vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 inline vec3 normalize3(vec3 a) { return scale3(a, rsqrt(dot3(a, a))); }
 inline vec3 select3(vec3 a, vec3 b, maskN m)
 {
-    return v3(select(a.x, b.x, m), select(a.y, b.y, m), select(a.z, b.z, m));
+    return v3(sel(a.x, b.x, m), sel(a.y, b.y, m), sel(a.z, b.z, m));
 }
 /* Mirror reflection of w about the unit normal m. */
 inline vec3 reflect3(vec3 w, vec3 m) { return sub3(scale3(m, 2 * dot3(w, m)), w); }
@@ -130,7 +140,7 @@ inline realN erfinv_r(realN x)
     q = (realN)0.00943887047 + q * b;
     q = (realN)1.00167406 + q * b;
     q = (realN)2.83297682 + q * b;
-    realN r = select(q, p, w < 5) * x;
+    realN r = sel(q, p, w < 5) * x;
 #if CLBRDF_DOUBLE
     for (int i = 0; i < 2; ++i)
         r -= (erf(r) - x) / (2 * INV_SQRT_PI_R * exp(-r * r));

@@ -17,7 +17,7 @@ inline realN fresnel_dielectric(realN eta, realN c)
     realN g = safe_sqrt(g2);
     realN a = (g - c) / (g + c);
     realN b = (c * (g + c) - 1) / (c * (g - c) + 1);
-    return select((realN)0.5 * a * a * (1 + b * b), (realN)1, g2 < 0);
+    return sel((realN)0.5 * a * a * (1 + b * b), (realN)1, g2 < 0);
 }
 
 /* Unpolarised conductor with complex index eta + i k (Born & Wolf; real arithmetic form):

@@ -5,7 +5,7 @@
  *   PARAMS(X)   X(name, index) for each parameter of the configuration
  *   MODEL       the model's function prefix (lambert, microfacet, ...)
  *   ESTIMATOR   ESTIMATOR_UNIFORM | ESTIMATOR_COSINE | ESTIMATOR_BRDF | ESTIMATOR_MIS
- *   RNG         rand_philox | rand_sobol
+ *   RNG         rand_philox | rand_sobol (RNG_PHILOX 1 for the first)
  *   BLOCK       samples per work-item in the albedo kernel (a multiple of W)
  * and includes the model header after common.h, rng.h, warp.h (see clbrdf/build.py).
  *
@@ -18,6 +18,16 @@
 #define ESTIMATOR_MIS 3
 
 #define BRDF(fn) CAT(MODEL, CAT(_, fn))
+
+/* How many of the four numbers an estimate uses (a model header defines MODEL_SAMPLE_DIMS). */
+#if ESTIMATOR == ESTIMATOR_UNIFORM || ESTIMATOR == ESTIMATOR_COSINE
+#define ESTIMATOR_DIMS 2
+#elif ESTIMATOR == ESTIMATOR_BRDF
+#define ESTIMATOR_DIMS BRDF(SAMPLE_DIMS)
+#else
+#define ESTIMATOR_DIMS 4
+#endif
+#define RNG_PAIRS (RNG_PHILOX && ESTIMATOR_DIMS <= 2)
 
 /* W consecutive queries starting at i (batch kernels). */
 inline Params load_params(const global real_t *P, ulong stride, ulong i)
@@ -119,7 +129,7 @@ inline realN albedo_estimate(const Params *p, vec3 wo, rand4 u)
     vec3 wi = select3(wc, wb, u.u3 < (realN)0.5);
     realN q = (realN)0.5 * (BRDF(pdf)(p, wo, wi) + cosine_hemisphere_pdf(wi));
     realN v = BRDF(eval)(p, wi, wo) * wi.z / q;
-    return select((realN)0, v, (wi.z > 0) & (q > 0));
+    return sel((realN)0, v, (wi.z > 0) & (q > 0));
 #endif
 }
 
@@ -135,20 +145,35 @@ __kernel void albedo_blocks(const global real_t *P, const global real_t *WO, con
     ulong local_point = g / blocks;
     uint block = (uint)(g % blocks);
     if (local_point >= npoints) return;
-    ulong point = point0 + local_point;
+    uint point = (uint)(point0 + local_point);
     Params p = splat_params(P, npoints, local_point);
     vec3 wo = v3((realN)WO[local_point], (realN)WO[npoints + local_point], (realN)WO[2 * npoints + local_point]);
     uint stream = block / blocks_per_stream;
     uint first = (block % blocks_per_stream) * BLOCK;
     realN sum = 0, sum2 = 0;
+#if RNG_PAIRS
+    /* The estimate needs two numbers: one Philox call serves samples 2c and 2c + 1
+     * (words 0-1 and 2-3 of counter c), halving the generator's cost. */
+    for (uint k = 0; k < BLOCK; k += 2 * W) {
+        uintN c = (uintN)((first + k) >> 1) + LANE_IDS;
+        uint4N r = {c, (uintN)point, (uintN)stream, (uintN)0};
+        r = philox4x32_10(r, seed_lo, seed_hi);
+        rand4 ua = {bits_to_unit(r.c0), bits_to_unit(r.c1), (realN)0.5, (realN)0.5};
+        rand4 ub = {bits_to_unit(r.c2), bits_to_unit(r.c3), (realN)0.5, (realN)0.5};
+        realN va = sel((realN)0, albedo_estimate(&p, wo, ua), TO_MASK(2 * c < (uintN)samples));
+        realN vb = sel((realN)0, albedo_estimate(&p, wo, ub), TO_MASK(2 * c + 1 < (uintN)samples));
+        sum += va + vb;
+        sum2 += va * va + vb * vb;
+    }
+#else
     for (uint k = 0; k < BLOCK; k += W) {
         uintN idx = (uintN)(first + k) + LANE_IDS;
-        rand4 u = RNG(idx, (uint)point, stream, seed_lo, seed_hi);
-        realN v = albedo_estimate(&p, wo, u);
-        v = select((realN)0, v, TO_MASK(idx < (uintN)samples));
+        rand4 u = RNG(idx, point, stream, seed_lo, seed_hi);
+        realN v = sel((realN)0, albedo_estimate(&p, wo, u), TO_MASK(idx < (uintN)samples));
         sum += v;
         sum2 += v * v;
     }
+#endif
     out[2 * g] = HSUM(sum);
     out[2 * g + 1] = HSUM(sum2);
 }

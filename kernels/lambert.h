@@ -9,14 +9,16 @@
 #ifndef CLBRDF_LAMBERT_H
 #define CLBRDF_LAMBERT_H
 
+#define lambert_SAMPLE_DIMS 2
+
 inline realN lambert_eval(const Params *p, vec3 wi, vec3 wo)
 {
-    return select((realN)0, p->kd * INV_PI_R, (wi.z > 0) & (wo.z > 0));
+    return sel((realN)0, p->kd * INV_PI_R, (wi.z > 0) & (wo.z > 0));
 }
 
 inline realN lambert_pdf(const Params *p, vec3 wo, vec3 wi)
 {
-    return select((realN)0, cosine_hemisphere_pdf(wi), wo.z > 0);
+    return sel((realN)0, cosine_hemisphere_pdf(wi), wo.z > 0);
 }
 
 inline BSample lambert_sample(const Params *p, vec3 wo, rand4 u)
@@ -24,7 +26,7 @@ inline BSample lambert_sample(const Params *p, vec3 wo, rand4 u)
     BSample s;
     s.wi = square_to_cosine_hemisphere(u.u0, u.u1);
     s.pdf = lambert_pdf(p, wo, s.wi);
-    s.weight = select((realN)0, p->kd, wo.z > 0);
+    s.weight = sel((realN)0, p->kd, wo.z > 0);
     return s;
 }
 

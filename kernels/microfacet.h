@@ -41,6 +41,7 @@
 #define SAMPLER_VNDF 1
 
 #define MF(fn) CAT(MF_DIST, CAT(_, fn))
+#define microfacet_SAMPLE_DIMS (MF_DIFFUSE ? 3 : 2)   /* numbers microfacet_sample uses */
 
 inline Microfacet mf_distribution(const Params *p)
 {
@@ -88,7 +89,7 @@ inline realN mf_diffuse_prob(const Params *p, vec3 wo)
 #if MF_DIFFUSE
     realN fs = mf_fresnel(p, wo.z);
     realN s = p->kd + fs;
-    return select(p->kd / s, (realN)0, s <= 0);
+    return sel(p->kd / s, (realN)0, s <= 0);
 #else
     return (realN)0;
 #endif
@@ -102,7 +103,7 @@ inline realN microfacet_eval(const Params *p, vec3 wi, vec3 wo)
 #if MF_DIFFUSE
     f += p->kd * INV_PI_R;
 #endif
-    return select((realN)0, f, (wi.z > 0) & (wo.z > 0));
+    return sel((realN)0, f, (wi.z > 0) & (wo.z > 0));
 }
 
 /* Density of the specular lobe's sampler, per unit solid angle of wi. */
@@ -124,7 +125,7 @@ inline realN microfacet_pdf(const Params *p, vec3 wo, vec3 wi)
     realN pd = mf_diffuse_prob(p, wo);
     pdf = pd * wi.z * INV_PI_R + (1 - pd) * pdf;
 #endif
-    return select((realN)0, pdf, (wi.z > 0) & (wo.z > 0));
+    return sel((realN)0, pdf, (wi.z > 0) & (wo.z > 0));
 }
 
 inline BSample microfacet_sample(const Params *p, vec3 wo, rand4 u)
@@ -156,8 +157,8 @@ inline BSample microfacet_sample(const Params *p, vec3 wo, rand4 u)
     s.weight = F * G * dot3(wo, h) / (wo.z * h.z);
 #endif
 #endif
-    s.weight = select((realN)0, s.weight, ok);
-    s.pdf = select((realN)0, s.pdf, ok);
+    s.weight = sel((realN)0, s.weight, ok);
+    s.pdf = sel((realN)0, s.pdf, ok);
     return s;
 }
 

@@ -26,7 +26,7 @@ inline vec3 slope_to_normal(realN sx, realN sy) { return normalize3(v3(-sx, -sy,
 inline realN ggx_D(Microfacet m, vec3 h)
 {
     realN e = sqr(h.x / m.ax) + sqr(h.y / m.ay) + h.z * h.z;
-    return select((realN)0, INV_PI_R / (m.ax * m.ay * e * e), h.z > 0);
+    return sel((realN)0, INV_PI_R / (m.ax * m.ay * e * e), h.z > 0);
 }
 
 /* Lambda = (-1 + sqrt(1 + a^2 tan^2))/2, written as t / (2 (z^2 + z sqrt(z^2 + t))) with
@@ -65,7 +65,7 @@ inline realN beckmann_D(Microfacet m, vec3 h)
     realN z2 = h.z * h.z;
     realN e = (sqr(h.x / m.ax) + sqr(h.y / m.ay)) / z2;
     realN d = exp(-e) / (PI_R * m.ax * m.ay * z2 * z2);
-    return select((realN)0, d, (h.z > 0) & (e < (realN)(CLBRDF_DOUBLE ? 700 : 85)));
+    return sel((realN)0, d, (h.z > 0) & (e < (realN)(CLBRDF_DOUBLE ? 700 : 85)));
 }
 
 /* Lambda = (erf(a) - 1)/2 + exp(-a^2) / (2 a sqrt(pi)), a = 1 / (alpha tan theta) (Walter 2007
@@ -74,7 +74,7 @@ inline realN beckmann_Lambda(Microfacet m, vec3 w)
 {
     realN a = fabs(w.z) * rsqrt(projected_roughness2(m, w));   /* inf at normal incidence */
     realN l = (realN)0.5 * (exp(-a * a) * INV_SQRT_PI_R / a - erfc(a));
-    return select(l, (realN)0, isinf(a));
+    return sel(l, (realN)0, isinf(a));
 }
 
 /* Slopes of Beckmann are Gaussian with variance alpha^2 / 2 per axis. */
@@ -101,16 +101,16 @@ inline void beckmann_visible_slopes11(realN cos_t, realN u0, realN u1, realN *sx
     realN th = acos(cos_t);
     realN fit = 1 + th * ((realN)-0.876 + th * ((realN)0.4265 - (realN)0.0594 * th));
     realN b = hi - (1 + hi) * exp(fit * log1p(-u0));
-    realN tail = select(tan_t * exp(-cot_t * cot_t), (realN)0, isinf(cot_t));
+    realN tail = sel(tan_t * exp(-cot_t * cot_t), (realN)0, isinf(cot_t));
     realN norm = 1 / (1 + hi + INV_SQRT_PI_R * tail);
     for (int i = 0; i < BECKMANN_NEWTON_STEPS; ++i) {
-        b = select(b, (realN)0.5 * (lo + hi), !((b >= lo) & (b <= hi)));
+        b = sel(b, (realN)0.5 * (lo + hi), !((b >= lo) & (b <= hi)));
         realN s = erfinv_r(b);
         realN value = norm * (1 + b + INV_SQRT_PI_R * tan_t * exp(-s * s)) - u0;
         realN deriv = norm * (1 - s * tan_t);
         maskN above = value > 0;
-        hi = select(hi, b, above);
-        lo = select(b, lo, above);
+        hi = sel(hi, b, above);
+        lo = sel(b, lo, above);
         b -= value / deriv;
     }
     b = clamp(b, lo, hi);
@@ -125,7 +125,7 @@ inline vec3 beckmann_sample_vndf(Microfacet m, vec3 w, realN u0, realN u1)
     beckmann_visible_slopes11(ws.z, u0, u1, &sx, &sy);
     /* rotate from the x-z plane to the azimuth of ws, then unstretch */
     realN rxy = sqrt(ws.x * ws.x + ws.y * ws.y);
-    realN cp = select(ws.x / rxy, (realN)1, rxy == 0), sp = select(ws.y / rxy, (realN)0, rxy == 0);
+    realN cp = sel(ws.x / rxy, (realN)1, rxy == 0), sp = sel(ws.y / rxy, (realN)0, rxy == 0);
     realN tx = cp * sx - sp * sy, ty = sp * sx + cp * sy;
     return slope_to_normal(m.ax * tx, m.ay * ty);
 }

@@ -24,9 +24,11 @@ typedef struct { uintN c0, c1, c2, c3; } uint4N;
 inline uint4N philox4x32_10(uint4N c, uint k0, uint k1)
 {
     for (int r = 0; r < 10; ++r) {
-        uintN hi0 = mul_hi((uintN)PHILOX_M0, c.c0), lo0 = (uintN)PHILOX_M0 * c.c0;
-        uintN hi1 = mul_hi((uintN)PHILOX_M1, c.c2), lo1 = (uintN)PHILOX_M1 * c.c2;
-        uint4N n = {hi1 ^ c.c1 ^ k0, lo1, hi0 ^ c.c3 ^ k1, lo0};
+        /* one 32x32 -> 64-bit product gives both halves (a single vpmuludq per 8 lanes) */
+        ulongN p0 = convert_ulongN(c.c0) * (ulongN)PHILOX_M0;
+        ulongN p1 = convert_ulongN(c.c2) * (ulongN)PHILOX_M1;
+        uint4N n = {convert_uintN(p1 >> 32) ^ c.c1 ^ k0, convert_uintN(p1),
+                    convert_uintN(p0 >> 32) ^ c.c3 ^ k1, convert_uintN(p0)};
         c = n;
         k0 += PHILOX_W0;
         k1 += PHILOX_W1;

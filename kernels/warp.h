@@ -13,7 +13,7 @@ inline vec3 square_to_uniform_hemisphere(realN u0, realN u1)
 {
     return polar_dir(u0, sqrt((1 - u0) * (1 + u0)), u1);
 }
-inline realN uniform_hemisphere_pdf(vec3 w) { return select((realN)0, (realN)(0.5 * INV_PI_R), w.z > 0); }
+inline realN uniform_hemisphere_pdf(vec3 w) { return sel((realN)0, (realN)(0.5 * INV_PI_R), w.z > 0); }
 
 /* Cosine-weighted (Malley's method, polar map): pdf = cos(theta) / pi. */
 inline vec3 square_to_cosine_hemisphere(realN u0, realN u1)
