@@ -122,14 +122,17 @@ inline realN albedo_estimate(const Params *p, vec3 wo, rand4 u)
 #elif ESTIMATOR == ESTIMATOR_BRDF
     return BRDF(sample)(p, wo, u).weight;
 #else
-    /* one-sample multiple importance sampling, balance heuristic (Veach 1997 section 9.2.4):
-     * technique chosen with probability 1/2 by u3; the estimate is f cos / (pdf_brdf + pdf_cos) / 2 */
-    vec3 wb = BRDF(sample)(p, wo, u).wi;
+    /* one-sample multiple importance sampling, balance heuristic (Veach 1997 section 9.2.4): the
+     * technique is chosen with probability 1/2 by u3; the estimate is f cos / ((pdf_b + pdf_c) / 2).
+     * A BRDF sample reuses its own weight f cos / pdf_b, computed from its half vector: recomputing
+     * f and pdf_b from wi + wo loses the lobe in single precision at grazing angles. */
+    BSample sb = BRDF(sample)(p, wo, u);
+    realN vb = sb.weight / ((realN)0.5 + (realN)0.5 * cosine_hemisphere_pdf(sb.wi) / sb.pdf);
+    vb = sel((realN)0, vb, sb.pdf > 0);
     vec3 wc = square_to_cosine_hemisphere(u.u0, u.u1);
-    vec3 wi = select3(wc, wb, u.u3 < (realN)0.5);
-    realN q = (realN)0.5 * (BRDF(pdf)(p, wo, wi) + cosine_hemisphere_pdf(wi));
-    realN v = BRDF(eval)(p, wi, wo) * wi.z / q;
-    return sel((realN)0, v, (wi.z > 0) & (q > 0));
+    realN qc = (realN)0.5 * (BRDF(pdf)(p, wo, wc) + cosine_hemisphere_pdf(wc));
+    realN vc = sel((realN)0, BRDF(eval)(p, wc, wo) * wc.z / qc, qc > 0);
+    return sel(vc, vb, u.u3 < (realN)0.5);
 #endif
 }
 
