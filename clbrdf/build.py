@@ -6,6 +6,7 @@ handed to the compiler is self-contained and its text is the cache key.
 """
 from __future__ import annotations
 
+import os
 import re
 from functools import lru_cache
 from importlib import resources
@@ -69,8 +70,10 @@ def program_source(cfg: Config, precision: str, width: int, *, estimator: str = 
 @lru_cache(maxsize=256)
 def _build(device: Device, source: str):
     import pyopencl as cl
+    # CLBRDF_BUILD_OPTIONS: extra compiler options, e.g. -cl-opt-disable for oclgrind
+    options = ["-cl-std=CL1.2"] + os.environ.get("CLBRDF_BUILD_OPTIONS", "").split()
     try:
-        return cl.Program(device.context, source).build(options=["-cl-std=CL1.2"])
+        return cl.Program(device.context, source).build(options=options)
     except cl.RuntimeError as e:  # compiler errors: keep the first few
         lines = [ln for ln in str(e).splitlines() if "error" in ln][:12]
         raise RuntimeError(f"kernel build failed on {device.info.name}:\n" + "\n".join(lines)) from e

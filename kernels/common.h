@@ -110,6 +110,18 @@ inline vec3 select3(vec3 a, vec3 b, maskN m)
 inline vec3 reflect3(vec3 w, vec3 m) { return sub3(scale3(m, 2 * dot3(w, m)), w); }
 
 inline realN sqr(realN x) { return x * x; }
+
+/* sin(x), and cos(x) in *c. -DCLBRDF_SEPARATE_SINCOS=1 calls sin and cos apart (about 20%
+ * slower on PoCL), for oclgrind, whose uninitialised-memory checker rejects sincos's pointer. */
+inline realN sincos_r(realN x, realN *c)
+{
+#if CLBRDF_SEPARATE_SINCOS
+    *c = cos(x);
+    return sin(x);
+#else
+    return sincos(x, c);
+#endif
+}
 inline realN safe_sqrt(realN x) { return sqrt(fmax(x, (realN)0)); }
 
 /* A sampled direction: wi, the estimator weight f cos(theta_i) / pdf, and pdf (1/sr). */
