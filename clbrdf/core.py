@@ -101,7 +101,7 @@ class Model:
         host_out = [np.empty((k, n_pad), dtype=self.dtype) for k in outputs]
         out_bufs = [cl.Buffer(ctx, mf.WRITE_ONLY, h.nbytes) for h in host_out]
         prog = self.program()
-        getattr(prog, kernel)(q, (n_pad // w,), None, *bufs, np.uint64(n_pad), *out_bufs)
+        _kernel(prog, kernel)(q, (n_pad // w,), None, *bufs, np.uint64(n_pad), *out_bufs)
         for h, b in zip(host_out, out_bufs):
             cl.enqueue_copy(q, h, b)
         q.finish()
@@ -157,7 +157,7 @@ class Model:
         prog = self.program(rng="sobol" if qmc else "philox")
         buf = cl.Buffer(self.device.context, cl.mem_flags.WRITE_ONLY, 4 * n_pad * np.dtype(self.dtype).itemsize)
         lo, hi = _seed_words(seed)
-        prog.random_batch(self.device.queue, (n_pad // w,), None, np.uint64(n_pad), np.uint32(point),
+        _kernel(prog, "random_batch")(self.device.queue, (n_pad // w,), None, np.uint64(n_pad), np.uint32(point),
                           np.uint32(stream), lo, hi, buf)
         out = np.empty((4, n_pad), dtype=self.dtype)
         cl.enqueue_copy(self.device.queue, out, buf)
@@ -226,7 +226,7 @@ def albedo(m: Model, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 <
     blocks = streams * bps
     s_theta = np.sqrt(np.maximum(0.0, 1 - mu * mu))
     wo = [s_theta * np.cos(phi), s_theta * np.sin(phi), mu]
-    prog = m.program(estimator=estimator, rng="sobol" if qmc else "philox")
+    kernel = _kernel(m.program(estimator=estimator, rng="sobol" if qmc else "philox"), "albedo_blocks")
     lo, hi = _seed_words(seed)
     ctx, q = m.device.context, m.device.queue
     mf = cl.mem_flags
@@ -247,7 +247,7 @@ def albedo(m: Model, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 <
         bw = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=WO)
         out = np.empty(k * blocks * 2, dtype=m.dtype)
         bo = cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes)
-        prog.albedo_blocks(q, (k * blocks,), None, bp, bw, np.uint64(k), np.uint64(start),
+        kernel(q, (k * blocks,), None, bp, bw, np.uint64(k), np.uint64(start),
                            np.uint32(blocks), np.uint32(per_stream), lo, hi, np.uint32(bps), bo)
         cl.enqueue_copy(q, out, bo)
         q.finish()
@@ -268,6 +268,18 @@ def albedo(m: Model, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 <
     return AlbedoResult(est.reshape(shape), err.reshape(shape), np.broadcast_to(mu, shape),
                         estimator, per_stream * streams, qmc, int(seed), m.precision, seconds,
                         m.describe())
+
+
+_KERNELS: dict = {}
+
+
+def _kernel(prog, name: str):
+    """One kernel object per (program, name): pyopencl creates a new one on every attribute access."""
+    key = (id(prog), name)
+    if key not in _KERNELS:
+        import pyopencl as cl
+        _KERNELS[key] = (prog, cl.Kernel(prog, name))
+    return _KERNELS[key][1]
 
 
 def _progress(total: int, enabled: bool):
@@ -323,7 +335,9 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
     out["E_avg"], out["E_avg_stderr"] = albedo_avg(ma, nodes=avg_nodes, samples=samples,
                                                    estimator=estimator, seed=seed, qmc=qmc,
                                                    progress=progress)
-    meta = {"model": name, "fixed": {k: v for k, v in fixed.items()}, "axes": names,
+    fixed_all = {k: (v.item() if v.ndim == 0 else v.tolist()) for k, v in ma.params.items()
+                 if k not in names}
+    meta = {"model": name, "fixed": fixed_all, "axes": names,
             "options": m.options, "estimator": estimator, "qmc": qmc, "samples": r.samples,
             "seed": seed, "precision": precision, "device": m.device.info.name,
             "version": __version__, "seconds": time.perf_counter() - t0,

@@ -59,7 +59,7 @@ def _all_devices():
         except cl.Error:
             continue
         for di, d in enumerate(devs):
-            out.append((DeviceInfo(pi, di, d.name.strip(), p.name.strip(),
+            out.append((DeviceInfo(pi, di, d.name.strip(), f"{p.name.strip()} ({p.version.strip()})",
                                    bool(d.type & cl.device_type.GPU),
                                    "cl_khr_fp64" in d.extensions, d.max_compute_units), d))
     return out

@@ -340,20 +340,24 @@ def halfvector_map(dist, wo, alpha_x, alpha_y):
         a2 = 1 / ((np.cos(phi) / ax) ** 2 + (np.sin(phi) / ay) ** 2)
         delta = np.arctan2(so * np.cos(phi - phi_o), co)
         tan2_max = np.tan((np.pi / 2 + delta) / 2) ** 2
-        # u = s u_max; v = 1 - u kept without cancellation
         if dist == "ggx":
-            v_max = a2 / (a2 + tan2_max)                  # 1 - u_max
-            u = s * (1 - v_max)
-            tan2 = a2 * u / ((1 - s) + s * v_max)
+            # the rule runs in r = sqrt(1 - u) (u = 1 - r^2 in [0, u_max]): f cos / p grows like
+            # 1/h.z ~ 1/r towards grazing h, which matters for grazing wo; in r it is smooth
+            r_min = np.sqrt(a2 / (a2 + tan2_max))         # sqrt(1 - u_max)
+            r = (1 - s) + s * r_min
+            tan2 = a2 * s * (1 - r_min) * (1 + r) / r ** 2     # a^2 u / (1 - u)
+            jac = 2 * r * (1 - r_min)
         else:
-            v_max = np.exp(-tan2_max / a2)
+            # u = s u_max; 1 - u kept without cancellation
+            v_max = np.exp(-tan2_max / a2)                # 1 - u_max
             u = s * (1 - v_max)
-            v = (1 - s) + s * v_max
-            tan2 = -a2 * np.where(u < 0.5, np.log1p(-u), np.log(v))
+            with np.errstate(divide="ignore"):
+                tan2 = -a2 * np.where(u < 0.5, np.log1p(-u), np.log((1 - s) + s * v_max))
+            jac = 1 - v_max
         cos_t = 1 / np.sqrt(1 + tan2)
         sin_t = np.sqrt(tan2) * cos_t
         h = np.stack([sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t], -1)
-        return reflect(wo, h), 1 - v_max
+        return reflect(wo, h), jac
 
     def density(wi):
         h = normalize(wi + wo)
@@ -382,50 +386,63 @@ def _panel_sums(func, s0, s1, t0, t1, x, w):
     return np.einsum("pij,i,j->p", v, w, w) * (ds * dt)[:, 0]
 
 
-def adaptive_gl2(func, tol=1e-8, n=8, grid=(4, 8), max_evals=5e7):
-    """Integral of func(s, t) over [0,1]^2 and an error estimate.
+def _panels(func, s0, s1, t0, t1, x, w):
+    """Estimate and error per panel: the n x n rule I0 against the rule on the panel halved in
+    s (Is) and halved in t (It). The estimate is Is + It - I0 (both refinements), the error
+    es + et, with es = |Is - I0| and et = |It - I0| the errors in s and in t."""
+    sm, tm = (s0 + s1) / 2, (t0 + t1) / 2
+    i0 = _panel_sums(func, s0, s1, t0, t1, x, w)
+    i_s = _panel_sums(func, s0, sm, t0, t1, x, w) + _panel_sums(func, sm, s1, t0, t1, x, w)
+    i_t = _panel_sums(func, s0, s1, t0, tm, x, w) + _panel_sums(func, s0, s1, tm, t1, x, w)
+    return i_s + i_t - i0, np.abs(i_s - i0), np.abs(i_t - i0)
 
-    On each panel the n x n rule is compared with the same rule on the panel halved in s and
-    halved in t; the differences es, et estimate the error in each variable. A panel is done when
-    es + et <= tol * area; it contributes the extrapolated value Is + It - I0 and es + et to the
-    error. Other panels are split in the variable(s) whose error dominates. The returned error
-    is the sum of these differences: two successive refinements agree within it.
+
+def adaptive_gl2(func, tol=1e-8, n=8, grid=(4, 8), max_evals=5e7):
+    """Integral of func(s, t) over [0,1]^2 by n x n Gauss-Legendre panels, and an error estimate.
+
+    Globally adaptive: while the panels' errors (see ``_panels``) sum to more than tol, the
+    panels with the largest errors, enough that the others sum to at most tol/2, are split in
+    the variable(s) whose error dominates. The returned error is that sum: on every panel two
+    successive refinements agree within its share.
     """
     x, w = _rule(n)
     s_edges, t_edges = np.linspace(0, 1, grid[0] + 1), np.linspace(0, 1, grid[1] + 1)
     S0, T0 = np.meshgrid(s_edges[:-1], t_edges[:-1], indexing="ij")
     S1, T1 = np.meshgrid(s_edges[1:], t_edges[1:], indexing="ij")
     s0, s1, t0, t1 = S0.ravel(), S1.ravel(), T0.ravel(), T1.ravel()
-    total = err = 0.0
-    evals = 0
-    while s0.size:
-        sm, tm = (s0 + s1) / 2, (t0 + t1) / 2
-        i0 = _panel_sums(func, s0, s1, t0, t1, x, w)
-        i_s = _panel_sums(func, s0, sm, t0, t1, x, w) + _panel_sums(func, sm, s1, t0, t1, x, w)
-        i_t = _panel_sums(func, s0, s1, t0, tm, x, w) + _panel_sums(func, s0, s1, tm, t1, x, w)
-        evals += 5 * n * n * s0.size
-        es, et = np.abs(i_s - i0), np.abs(i_t - i0)
-        done = es + et <= tol * (s1 - s0) * (t1 - t0)
+    val, es, et = _panels(func, s0, s1, t0, t1, x, w)
+    evals = 5 * n * n * s0.size
+    while True:
+        e = es + et
+        total = np.sum(e)
+        if total <= tol:
+            break
         if evals > max_evals:
-            warnings.warn(f"adaptive_gl2: {evals} evaluations, {s0.size} panels left unconverged",
-                          RuntimeWarning, stacklevel=2)
-            done[:] = True
-        total += np.sum((i_s + i_t - i0)[done])
-        err += np.sum((es + et)[done])
-        keep = ~done
-        split_s = (es >= et / 4)[keep]
-        split_t = (et >= es / 4)[keep]
-        s0, s1, t0, t1 = s0[keep], s1[keep], t0[keep], t1[keep]
-        # split each kept panel into 1 x 2, 2 x 1 or 2 x 2
-        ns, nt = 1 + split_s, 1 + split_t
+            warnings.warn(f"adaptive_gl2: stopped after {evals} evaluations with error "
+                          f"{total:.3g} > tol {tol:.3g}", RuntimeWarning, stacklevel=2)
+            break
+        order = np.argsort(-e)
+        rest = total - np.cumsum(e[order])          # error left if the first k+1 are split
+        k = np.searchsorted(-rest, -tol / 2) + 1    # first k with rest <= tol/2
+        split, keep = order[:k], order[k:]
+        ps, pt = s1[split] - s0[split], t1[split] - t0[split]
+        ns = 1 + (es[split] >= et[split] / 4)
+        nt = 1 + (et[split] >= es[split] / 4)
+        # children of each split panel: 1 x 2, 2 x 1 or 2 x 2
         reps = ns * nt
-        idx = np.repeat(np.arange(s0.size), reps)
-        k = np.arange(idx.size) - np.repeat(np.cumsum(reps) - reps, reps)   # child number
-        ks, kt = k % ns[idx], k // ns[idx]
-        ws, wt = (s1 - s0)[idx] / ns[idx], (t1 - t0)[idx] / nt[idx]
-        s0, t0 = s0[idx] + ks * ws, t0[idx] + kt * wt
-        s1, t1 = s0 + ws, t0 + wt
-    return total, err
+        idx = np.repeat(np.arange(split.size), reps)
+        c = np.arange(idx.size) - np.repeat(np.cumsum(reps) - reps, reps)
+        cs, ct = c % ns[idx], c // ns[idx]
+        ws, wt = ps[idx] / ns[idx], pt[idx] / nt[idx]
+        c0 = s0[split][idx] + cs * ws
+        d0 = t0[split][idx] + ct * wt
+        cv, ces, cet = _panels(func, c0, c0 + ws, d0, d0 + wt, x, w)
+        evals += 5 * n * n * c0.size
+        s0, s1 = np.concatenate([s0[keep], c0]), np.concatenate([s1[keep], c0 + ws])
+        t0, t1 = np.concatenate([t0[keep], d0]), np.concatenate([t1[keep], d0 + wt])
+        val = np.concatenate([val[keep], cv])
+        es, et = np.concatenate([es[keep], ces]), np.concatenate([et[keep], cet])
+    return np.sum(val), np.sum(es + et)
 
 
 def hemisphere_integral(integrand, maps, tol=1e-8, weights=None, **kw):

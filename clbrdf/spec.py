@@ -33,7 +33,7 @@ class Param:
         bad = ~np.isfinite(v) | (v > self.hi) | ((v <= self.lo) if self.lo_open else (v < self.lo))
         if np.any(bad):
             first = v.reshape(-1)[np.argmax(bad.reshape(-1))]
-            raise ParameterError(f"parameter {self.name}={first!r} is out of range: "
+            raise ParameterError(f"parameter {self.name}={float(first)!r} is out of range: "
                                  f"valid {self.name} is in {self.range_text()} ({self.meaning})")
 
 
@@ -156,7 +156,7 @@ def check_mu(mu) -> np.ndarray:
     bad = ~np.isfinite(mu) | (mu <= 0) | (mu > 1)
     if np.any(bad):
         v = mu.reshape(-1)[np.argmax(bad.reshape(-1))]
-        raise ParameterError(f"mu={v!r} is out of range: valid mu = cos(theta_o) is in (0, 1] "
+        raise ParameterError(f"mu={float(v)!r} is out of range: valid mu = cos(theta_o) is in (0, 1] "
                              f"(a direction above the horizon)")
     return mu
 

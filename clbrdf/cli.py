@@ -1,0 +1,478 @@
+"""Command line interface: ``clbrdf devices | models | eval | albedo | table``.
+
+Exit codes: 0 success, 2 bad input (unknown model or parameter, value out of range, malformed
+argument), 3 no usable OpenCL device, 1 anything else. Errors are one line on stderr; set
+``CLBRDF_DEBUG=1`` to see the traceback as well.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import re
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__
+from .device import NO_DEVICE_HELP, DeviceError
+from .spec import ParameterError
+
+EXIT_INPUT = 2
+EXIT_DEVICE = 3
+
+DEVICE_HELP = ("OpenCL device: P:D as 'clbrdf devices' lists it, or a substring of the device or "
+               "platform name (default: env CLBRDF_DEVICE, else the first GPU, else the first CPU "
+               "whose compiler works)")
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with a one-line error message and exit code 2."""
+
+    def error(self, message):
+        self.exit(EXIT_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+# ---------------------------------------------------------------------------------------------
+# argument parsing helpers (all raise ParameterError on bad input)
+
+def _number(text: str, what: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise ParameterError(f"{what}={text!r} is not a number") from None
+
+
+def parse_params(spec, items) -> dict:
+    """``NAME=VALUE`` strings -> keyword arguments: options stay strings, parameters become
+    floats (range checks are the model's)."""
+    out: dict = {}
+    option_names = {o.name for o in spec.options}
+    for item in items or ():
+        name, sep, value = item.partition("=")
+        name, value = name.strip(), value.strip()
+        if not sep or not name or not value:
+            raise ParameterError(f"--param {item!r} is malformed: expected NAME=VALUE "
+                                 f"(e.g. alpha=0.3 or masking=vcavity)")
+        if name in out:
+            raise ParameterError(f"parameter {name} is given twice ({name}={out[name]!r} and "
+                                 f"{name}={value!r})")
+        if name in option_names:
+            out[name] = value
+            continue
+        p = spec.param(name)            # unknown names: ParameterError listing the valid ones
+        try:
+            out[name] = float(value)
+        except ValueError:
+            raise ParameterError(f"parameter {name}={value!r} is not a number: valid {name} is in "
+                                 f"{p.range_text()} ({p.meaning})") from None
+    return out
+
+
+def parse_vector(text: str, name: str) -> np.ndarray:
+    parts = text.split(",")
+    if len(parts) != 3:
+        raise ParameterError(f"{name}={text!r} is malformed: expected three numbers X,Y,Z "
+                             f"(a unit vector with Z > 0)")
+    return np.array([_number(p.strip(), name) for p in parts])
+
+
+def parse_list(text: str, name: str) -> np.ndarray:
+    parts = [p.strip() for p in text.split(",")]
+    if not text.strip() or any(not p for p in parts):
+        raise ParameterError(f"{name}={text!r} is malformed: expected comma-separated numbers "
+                             f"(e.g. {name}=0.1,0.5,1)")
+    return np.array([_number(p, name) for p in parts])
+
+
+SPACINGS = ("lin", "log")
+
+
+def parse_axis(text: str):
+    """``NAME=START:STOP:COUNT[:SPACING]`` -> (name, values, spacing)."""
+    form = "expected NAME=START:STOP:COUNT[:SPACING] with SPACING lin or log (e.g. alpha=0.02:1:32)"
+    name, sep, rest = text.partition("=")
+    name = name.strip()
+    fields = rest.split(":")
+    if not sep or not name or len(fields) not in (3, 4):
+        raise ParameterError(f"axis {text!r} is malformed: {form}")
+    start = _number(fields[0].strip(), f"axis {name} START")
+    stop = _number(fields[1].strip(), f"axis {name} STOP")
+    try:
+        count = int(fields[2].strip())
+    except ValueError:
+        raise ParameterError(f"axis {name} COUNT={fields[2].strip()!r} is not an integer: "
+                             f"valid COUNT is in [1, 100000]") from None
+    if not 1 <= count <= 100000:
+        raise ParameterError(f"axis {name} COUNT={count} is out of range: valid COUNT is in "
+                             f"[1, 100000]")
+    spacing = fields[3].strip() if len(fields) == 4 else "lin"
+    if spacing not in SPACINGS:
+        raise ParameterError(f"axis {name} SPACING={spacing!r} is not valid: choose one of lin, log")
+    if not (math.isfinite(start) and math.isfinite(stop)):
+        raise ParameterError(f"axis {name}={start!r}:{stop!r} is not finite: START and STOP must be "
+                             f"finite numbers")
+    if spacing == "log":
+        if start <= 0 or stop <= 0:
+            bad = start if start <= 0 else stop
+            raise ParameterError(f"axis {name}: log spacing needs START and STOP > 0, got {bad!r}: "
+                                 f"valid START and STOP are in (0, inf)")
+        values = np.geomspace(start, stop, count)
+    else:
+        values = np.linspace(start, stop, count)
+    return name, values, spacing
+
+
+# ---------------------------------------------------------------------------------------------
+# device helpers
+
+def _usable(device) -> None:
+    """DeviceError unless the device's compiler works (one cached probe per device)."""
+    from .device import compiler_error
+    info = device.info
+    err = compiler_error((info.platform_index, info.device_index))
+    if err is not None:
+        raise DeviceError(f"device {info.selector} ({info.name} [{info.platform}]) cannot compile "
+                          f"kernels: {err}. {NO_DEVICE_HELP}")
+
+
+def _model(name, args, params):
+    from .core import Model
+    m = Model(name, precision=getattr(args, "precision", "single"), device=args.device, **params)
+    _usable(m.device)
+    return m
+
+
+def _spec(name):
+    from .models import get_spec
+    return get_spec(name)
+
+
+# ---------------------------------------------------------------------------------------------
+# commands
+
+def cmd_devices(args) -> int:
+    from .device import compiler_error, get_device, list_devices
+    devs = list_devices()
+    if not devs:
+        raise DeviceError(NO_DEVICE_HELP)
+    try:
+        chosen = get_device(args.device).info.selector
+        why = None
+    except DeviceError as e:
+        chosen, why = None, str(e)
+    rows = []
+    for d in devs:
+        err = compiler_error((d.platform_index, d.device_index))
+        rows.append((d.selector, "GPU" if d.is_gpu else "CPU", "yes" if d.has_fp64 else "no",
+                     "ok" if err is None else "FAILS", d.compute_units,
+                     f"{d.name} [{d.platform}]" + ("  <- default" if d.selector == chosen else ""),
+                     err))
+    if args.json:
+        print(json.dumps({"devices": [
+            {"selector": r[0], "type": r[1], "fp64": r[2] == "yes", "compiler_ok": r[6] is None,
+             "compiler_error": r[6], "compute_units": r[4],
+             "name": d.name, "platform": d.platform, "default": r[0] == chosen}
+            for r, d in zip(rows, devs)], "default": chosen}, indent=2))
+    else:
+        head = ("P:D", "type", "fp64", "compiler", "units", "device [platform]")
+        w = [max(len(str(x)) for x in col) for col in zip(head, *[r[:5] for r in rows])]
+        print("  ".join(str(h).ljust(n) for h, n in zip(head, w)) + "  " + head[5])
+        for r in rows:
+            print("  ".join(str(x).ljust(n) for x, n in zip(r[:5], w)) + "  " + r[5])
+            if r[6]:
+                print(" " * (sum(w) + 2 * len(w)) + f"compiler: {r[6]}")
+        src = ("--device" if args.device else "CLBRDF_DEVICE" if os.environ.get("CLBRDF_DEVICE")
+               else "first working GPU, else CPU")
+        print(f"default: {chosen or 'none'} ({src})")
+    if chosen is None:
+        print(f"clbrdf devices: error: {why}", file=sys.stderr)
+        return EXIT_DEVICE
+    return 0
+
+
+def cmd_models(args) -> int:
+    from .models import MODELS
+    specs = [_spec(args.model)] if args.model else list(MODELS.values())
+    if args.json:
+        print(json.dumps({s.name: {
+            "title": s.title, "reference": s.reference,
+            "params": {p.name: {"meaning": p.meaning, "range": p.range_text(), "lo": p.lo,
+                                "hi": p.hi, "lo_open": p.lo_open, "default": p.default}
+                       for p in s.params},
+            "options": {o.name: {"meaning": o.meaning, "choices": list(o.choices),
+                                 "default": o.default} for o in s.options}}
+            for s in specs}, indent=2))
+        return 0
+    for i, s in enumerate(specs):
+        if i:
+            print()
+        print(f"{s.name}: {s.title}")
+        print(f"  reference: {s.reference}")
+        print("  parameters (--param NAME=VALUE):")
+        wn = max(len(p.name) for p in s.params)
+        wr = max(len(p.range_text()) for p in s.params)
+        for p in s.params:
+            print(f"    {p.name.ljust(wn)}  {p.range_text().ljust(wr)}  default {p.default:<7g} "
+                  f"{p.meaning}")
+        if s.options:
+            print("  options (--param NAME=CHOICE):")
+            wo = max(len(o.name) for o in s.options)
+            wc = max(len("|".join(o.choices)) for o in s.options)
+            wd = max(len(o.default) for o in s.options)
+            for o in s.options:
+                print(f"    {o.name.ljust(wo)}  {'|'.join(o.choices).ljust(wc)}  "
+                      f"default {o.default.ljust(wd)}  {o.meaning}")
+        if s.configure_fn is not None and any(p.name == "f0" for p in s.params):
+            print("  fresnel defaults to the Fresnel parameters given: f0 -> schlick, eta -> "
+                  "dielectric, eta and k -> conductor, none -> one; kd adds a Lambertian term; "
+                  "alpha_x and alpha_y (instead of alpha) make it anisotropic")
+    return 0
+
+
+def cmd_eval(args) -> int:
+    from .spec import check_directions
+    spec = _spec(args.model)
+    params = parse_params(spec, args.param)
+    wi = check_directions("wi", parse_vector(args.wi, "wi"))
+    wo = check_directions("wo", parse_vector(args.wo, "wo"))
+    m = _model(spec.name, args, params)
+    value = float(m.eval(wi, wo))
+    if args.json:
+        d = m.describe()
+        print(json.dumps({"model": d.pop("model"), "params": d, "wi": wi.tolist(),
+                          "wo": wo.tolist(), "value": value, "precision": m.precision,
+                          "device": m.device.info.name}))
+    else:
+        print(f"{value:.9g}")
+    return 0
+
+
+def _describe(d: dict) -> str:
+    return " ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
+                    for k, v in d.items() if k != "model")
+
+
+def cmd_albedo(args) -> int:
+    from .core import albedo
+    spec = _spec(args.model)
+    params = parse_params(spec, args.param)
+    mu = parse_list(args.mu, "mu")
+    phi = _number(args.phi, "phi")
+    m = _model(spec.name, args, params)
+    r = albedo(m, mu, phi, estimator=args.estimator, samples=args.samples, seed=args.seed,
+               qmc=args.qmc, progress=True)
+    if args.json:
+        out = r.to_json()
+        out.update({"estimator": args.estimator, "qmc": args.qmc, "phi": phi,
+                    "device": m.device.info.name, "version": __version__})
+        print(json.dumps(out))
+        return 0
+    print(f"{spec.name}  {_describe(m.describe())}")
+    print(f"estimator {args.estimator}{' (qmc)' if args.qmc else ''}, {r.samples} samples per "
+          f"point, seed {args.seed}, {m.precision} precision, phi {phi:g}, "
+          f"{m.device.info.name}, {r.seconds:.3g} s")
+    print(f"{'mu':>10}  {'albedo':>10}  {'stderr':>10}")
+    for x, e, s in zip(np.ravel(r.mu), np.ravel(r.albedo), np.ravel(r.stderr)):
+        print(f"{x:>10.6g}  {e:>10.6f}  {s:>10.2e}")
+    return 0
+
+
+def cmd_table(args) -> int:
+    from . import tables
+    from .core import albedo_table
+    spec = _spec(args.model)
+    params = parse_params(spec, args.param)
+    out = Path(args.out)
+    if out.suffix.lower() not in tables.FORMATS:
+        raise ParameterError(f"--out {args.out!r}: unknown output suffix {out.suffix!r}: valid "
+                             f"suffixes are {', '.join(tables.FORMATS)}")
+    parent = out.parent if str(out.parent) else Path(".")
+    if not parent.is_dir():
+        raise ParameterError(f"--out {args.out!r}: directory {str(parent)!r} does not exist")
+    from .spec import check_mu
+    axes, spacing = {}, {}
+    for text in args.axis:
+        name, values, sp = parse_axis(text)
+        if name in axes:
+            raise ParameterError(f"axis {name} is given twice")
+        if name != "mu":
+            if any(o.name == name for o in spec.options):
+                raise ParameterError(f"axis {name}: {name} is an option, not a numeric parameter; "
+                                     f"give it as --param {name}=CHOICE")
+            if name in params:
+                raise ParameterError(f"parameter {name} is given both as --axis and --param")
+        try:
+            check_mu(values) if name == "mu" else spec.param(name).check(values)
+        except ParameterError as e:
+            raise ParameterError(f"--axis {text}: {_clean(e)}") from None
+        axes[name], spacing[name] = values, sp
+    if "mu" not in axes:
+        raise ParameterError("a table needs a mu axis: --axis mu=START:STOP:COUNT with mu in (0, 1]")
+    # fail before computing on bad parameters or no device
+    _model(spec.name, args, params)
+    t0 = time.perf_counter()
+    table = albedo_table(spec.name, axes, samples=args.samples, estimator=args.estimator,
+                         seed=args.seed, qmc=args.qmc, precision=args.precision,
+                         device=args.device, progress=True, **params)
+    seconds = time.perf_counter() - t0
+    meta = json.loads(table["metadata"])
+    # every fixed parameter, defaults included, and the options given
+    cfg, values = spec.configure(**params, **{a: v[0] for a, v in axes.items() if a != "mu"})
+    meta["fixed"] = {**{k: float(values[k]) for k in cfg.param_names if k not in axes},
+                     **{k: v for k, v in params.items() if isinstance(v, str)}}
+    meta["spacing"] = spacing
+    meta["command"] = " ".join(["clbrdf"] + [_quote(a) for a in args.argv])
+    table["metadata"] = json.dumps(meta)
+    written = tables.save_table(table, out)
+    print(tables.summary(table, seconds, written))
+    return 0
+
+
+def _quote(a: str) -> str:
+    import shlex
+    return shlex.quote(a)
+
+
+# ---------------------------------------------------------------------------------------------
+
+def build_parser() -> argparse.ArgumentParser:
+    from .core import ESTIMATORS, PRECISIONS
+    from .models import MODELS
+    top = _Parser(prog="clbrdf", description="Evaluate, sample and integrate BRDFs in bulk with "
+                  "OpenCL kernels (PoCL on the CPU out of the box).",
+                  epilog="Exit codes: 0 ok, 2 bad input, 3 no usable OpenCL device, 1 other errors.")
+    top.add_argument("--version", action="version", version=f"clbrdf {__version__}")
+    sub = top.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+
+    dev = argparse.ArgumentParser(add_help=False)
+    dev.add_argument("--device", metavar="SELECTOR", default=None, help=DEVICE_HELP)
+    models = ", ".join(MODELS)
+
+    def model_arg(p):
+        p.add_argument("model", metavar="MODEL", help=f"one of {models}")
+        p.add_argument("--param", "-p", action="append", default=[], metavar="NAME=VALUE",
+                       help="a parameter (alpha=0.3) or option (masking=vcavity); repeat for "
+                            "several; see 'clbrdf models'")
+
+    def sampling_args(p):
+        p.add_argument("--estimator", choices=ESTIMATORS, default="brdf",
+                       help="uniform or cosine hemisphere sampling, brdf importance sampling, or "
+                            "mis (balance heuristic of brdf and cosine) (default brdf)")
+        p.add_argument("--qmc", action="store_true",
+                       help="Owen-scrambled Sobol points in 16 scrambles instead of Philox")
+        p.add_argument("--samples", "-n", type=int, default=1 << 16, metavar="N",
+                       help="samples per point (default 65536)")
+        p.add_argument("--seed", type=int, default=0, metavar="S", help="random seed (default 0)")
+        p.add_argument("--precision", choices=PRECISIONS, default="single",
+                       help="kernel arithmetic (default single)")
+
+    p = sub.add_parser("devices", parents=[dev], help="list OpenCL devices",
+                       description="Every OpenCL platform and device, whether its compiler works, "
+                                   "and which one clbrdf uses by default.")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=cmd_devices)
+
+    p = sub.add_parser("models", parents=[dev], help="list models, parameters and options",
+                       description="Each model with its parameters (meaning, range, default) "
+                                   "and options (choices, default).")
+    p.add_argument("model", metavar="MODEL", nargs="?", help="only this model")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=cmd_models)
+
+    p = sub.add_parser("eval", parents=[dev], help="BRDF value for one pair of directions",
+                       description="Print the BRDF value f(wi, wo) in 1/sr.")
+    model_arg(p)
+    p.add_argument("--wi", required=True, metavar="X,Y,Z", help="direction to the light (unit, Z > 0)")
+    p.add_argument("--wo", required=True, metavar="X,Y,Z", help="direction to the viewer (unit, Z > 0)")
+    p.add_argument("--precision", choices=PRECISIONS, default="single",
+                   help="kernel arithmetic (default single)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=cmd_eval)
+
+    p = sub.add_parser("albedo", parents=[dev], help="directional albedo E(mu) by Monte Carlo",
+                       description="Directional albedo E(wo) = integral of f(wi, wo) cos(theta_i) "
+                                   "over wi, for wo with cos(theta_o) = mu and azimuth phi.")
+    model_arg(p)
+    p.add_argument("--mu", required=True, metavar="LIST",
+                   help="comma-separated cos(theta_o) values in (0, 1], e.g. 0.1,0.5,1")
+    p.add_argument("--phi", default="0", metavar="P", help="azimuth of wo in radians (default 0)")
+    sampling_args(p)
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=cmd_albedo)
+
+    p = sub.add_parser("table", parents=[dev], help="albedo table over a grid, to .npz or .csv "
+                       "with a PNG chart",
+                       description="E over the grid of the axes and E_avg = 2 int E(mu) mu dmu over "
+                                   "the non-mu axes; writes FILE (.npz or .csv, plus FILE.avg.csv "
+                                   "for .csv) and a chart FILE with suffix .png, atomically.")
+    model_arg(p)
+    p.add_argument("--axis", action="append", required=True, metavar="NAME=START:STOP:COUNT[:SPACING]",
+                   help="a grid axis: mu (required) or a numeric parameter; SPACING lin (default) "
+                        "or log; repeat for each axis")
+    sampling_args(p)
+    p.add_argument("--out", "-o", required=True, metavar="FILE", help="output .npz or .csv")
+    p.set_defaults(func=cmd_table)
+    return top
+
+
+def _clean(e) -> str:
+    """One line; NumPy scalar reprs (np.float64(0.5)) shown as plain numbers."""
+    msg = re.sub(r"(?<!['\"])np\.(?:float|int|uint)\d+\(([^()]*)\)", r"\1", str(e))
+    return " ".join(msg.split())
+
+
+VALUE_OPTIONS = ("--wi", "--wo", "--mu", "--phi", "--param", "-p", "--axis")
+
+
+def _join_negative(argv):
+    """``--wo -0.6,0,0.8`` -> ``--wo=-0.6,0,0.8``: argparse would take the value for an option."""
+    out, i = [], 0
+    while i < len(argv):
+        a = argv[i]
+        if (a in VALUE_OPTIONS and i + 1 < len(argv) and re.match(r"-[\d.]", argv[i + 1])):
+            out.append(f"{a}={argv[i + 1]}")
+            i += 2
+        else:
+            out.append(a)
+            i += 1
+    return out
+
+
+def main(argv=None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser()
+    args = parser.parse_args(_join_negative(argv))
+    args.argv = argv
+    warnings.filterwarnings("ignore", message=r".*has been retrieved more than once")
+    try:
+        return args.func(args)
+    except ParameterError as e:
+        print(f"clbrdf {args.command}: error: {_clean(e)}", file=sys.stderr)
+        return EXIT_INPUT
+    except DeviceError as e:
+        print(f"clbrdf {args.command}: error: {_clean(e)}", file=sys.stderr)
+        return EXIT_DEVICE
+    except BrokenPipeError:             # e.g. clbrdf albedo ... | head
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 141
+    except KeyboardInterrupt:
+        print("clbrdf: interrupted", file=sys.stderr)
+        return 130
+    except Exception as e:
+        if os.environ.get("CLBRDF_DEBUG"):
+            raise
+        kind = "error" if isinstance(e, (ValueError, OSError)) else f"error ({type(e).__name__})"
+        msg = _clean(e) or type(e).__name__
+        print(f"clbrdf {args.command}: {kind}: {msg}", file=sys.stderr)
+        return EXIT_INPUT if isinstance(e, ValueError) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

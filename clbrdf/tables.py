@@ -1,0 +1,285 @@
+"""Writing albedo tables (from ``clbrdf.albedo_table``) to .npz or .csv, with a PNG chart.
+
+``save_table(table, "ggx.npz")`` writes ``ggx.npz`` and ``ggx.png``; ``save_table(table,
+"ggx.csv")`` writes ``ggx.csv`` (long format: one row per grid point), ``ggx.avg.csv`` (E_avg)
+and ``ggx.png``. Every file is written to a temporary file in the same directory and moved into
+place with ``os.replace`` only once all of them have been written, so a failure leaves no
+truncated file and leaves existing files as they were.
+"""
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+FORMATS = (".npz", ".csv")
+
+
+# ---------------------------------------------------------------------------------------------
+# atomic writes
+
+class _Staged:
+    """Collects (final path, temporary path) pairs; ``commit`` moves all of them into place."""
+
+    def __init__(self):
+        self.pairs: list[tuple[Path, str]] = []
+
+    def open(self, path: Path, mode: str = "wb"):
+        path = Path(path)
+        fd, tmp = tempfile.mkstemp(dir=str(path.parent) or ".", prefix=f".{path.name}.",
+                                   suffix=".tmp")
+        self.pairs.append((path, tmp))
+        return os.fdopen(fd, mode, **({} if "b" in mode else {"newline": "", "encoding": "utf-8"}))
+
+    def commit(self) -> list[Path]:
+        for path, tmp in self.pairs:
+            try:    # keep the permissions a plain open() would have given
+                umask = os.umask(0)
+                os.umask(umask)
+                os.chmod(tmp, 0o666 & ~umask)
+            except OSError:
+                pass
+        for path, tmp in self.pairs:
+            os.replace(tmp, path)
+        done = [p for p, _ in self.pairs]
+        self.pairs = []
+        return done
+
+    def discard(self):
+        for _, tmp in self.pairs:
+            try:
+                os.unlink(tmp)
+            except FileNotFoundError:
+                pass
+        self.pairs = []
+
+
+def _sync_close(f):
+    f.flush()
+    os.fsync(f.fileno())
+    f.close()
+
+
+# ---------------------------------------------------------------------------------------------
+# table structure
+
+def _meta(table) -> dict:
+    m = table["metadata"]
+    return json.loads(m if isinstance(m, str) else str(np.asarray(m)))
+
+
+def _axes(table) -> list[str]:
+    return list(_meta(table)["axes"])
+
+
+def _other_axes(table) -> list[str]:
+    return [a for a in _axes(table) if a != "mu"]
+
+
+def paths_for(out) -> dict:
+    """The files ``save_table`` writes for an output name: data, avg (csv only), chart."""
+    out = Path(out)
+    suffix = out.suffix.lower()
+    if suffix not in FORMATS:
+        raise ValueError(f"unknown output suffix {out.suffix!r}: valid suffixes are "
+                         f"{', '.join(FORMATS)}")
+    paths = {"data": out, "chart": out.with_suffix(".png")}
+    if suffix == ".csv":
+        paths["avg"] = out.with_suffix(".avg.csv")
+    return paths
+
+
+def _fmt(x) -> str:
+    return repr(float(x))
+
+
+def _write_npz(f, table):
+    arrays = {k: np.asarray(v) for k, v in table.items() if k != "metadata"}
+    np.savez(f, metadata=np.asarray(table["metadata"]), **arrays)
+
+
+def _write_csv(f, table):
+    names = _axes(table)
+    f.write("# " + table["metadata"].replace("\n", " ") + "\n")
+    f.write(",".join(names + ["E", "E_stderr"]) + "\n")
+    E, S = np.asarray(table["E"]), np.asarray(table["E_stderr"])
+    for idx in np.ndindex(E.shape):
+        row = [_fmt(table[n][i]) for n, i in zip(names, idx)] + [_fmt(E[idx]), _fmt(S[idx])]
+        f.write(",".join(row) + "\n")
+
+
+def _write_avg_csv(f, table):
+    names = _other_axes(table)
+    f.write("# " + table["metadata"].replace("\n", " ") + "\n")
+    f.write(",".join(names + ["E_avg", "E_avg_stderr"]) + "\n")
+    A, S = np.asarray(table["E_avg"]), np.asarray(table["E_avg_stderr"])
+    for idx in np.ndindex(A.shape):
+        row = [_fmt(table[n][i]) for n, i in zip(names, idx)] + [_fmt(A[idx]), _fmt(S[idx])]
+        f.write(",".join(row) + "\n")
+
+
+def save_table(table: dict, out) -> list[Path]:
+    """Write the table and its chart (see the module docstring); returns the paths written."""
+    paths = paths_for(out)
+    staged = _Staged()
+    try:
+        if "avg" in paths:
+            f = staged.open(paths["data"], "w")
+            _write_csv(f, table)
+            _sync_close(f)
+            f = staged.open(paths["avg"], "w")
+            _write_avg_csv(f, table)
+            _sync_close(f)
+        else:
+            f = staged.open(paths["data"], "wb")
+            _write_npz(f, table)
+            _sync_close(f)
+        f = staged.open(paths["chart"], "wb")
+        plot_table(table, f)
+        _sync_close(f)
+        return staged.commit()
+    except BaseException:
+        staged.discard()
+        raise
+
+
+# ---------------------------------------------------------------------------------------------
+# chart
+
+def _title(meta) -> str:
+    opts = ", ".join(f"{k}={v}" for k, v in meta.get("options", {}).items())
+    axes = set(meta.get("axes", ()))
+    fixed = ", ".join(f"{k}={v:g}" if isinstance(v, (int, float)) else f"{k}={v}"
+                      for k, v in meta.get("fixed", {}).items()
+                      if k not in meta.get("options", {}) and k not in axes)
+    head = meta.get("model", "?") + (f" ({opts})" if opts else "")
+    est = meta.get("estimator", "?") + (" + QMC" if meta.get("qmc") else "")
+    line2 = (f"{fixed}; " if fixed else "") + (f"{meta.get('samples')} samples/point, {est}, "
+                                               f"{meta.get('precision')} precision")
+    return f"Directional albedo E: {head}\n{line2}"
+
+
+def plot_table(table: dict, fileobj) -> None:
+    """PNG chart: E(mu) for a handful of values of the second axis, and E_avg along it."""
+    import matplotlib
+    from matplotlib import cm, colors
+    from matplotlib.figure import Figure
+
+    meta = _meta(table)
+    names = _axes(table)
+    others = _other_axes(table)
+    spacing = meta.get("spacing", {})
+    E = np.asarray(table["E"], dtype=float)
+    S = np.asarray(table["E_stderr"], dtype=float)
+    mu = np.asarray(table["mu"], dtype=float)
+    # move mu first, then the second axis; further axes are shown at their first value
+    order = [names.index("mu")] + [names.index(a) for a in others]
+    E, S = np.transpose(E, order), np.transpose(S, order)
+    A = np.asarray(table["E_avg"], dtype=float)
+    AS = np.asarray(table["E_avg_stderr"], dtype=float)
+    extra = others[1:]
+    while E.ndim > 2:
+        E, S = E[..., 0], S[..., 0]
+    while A.ndim > 1:
+        A, AS = A[..., 0], AS[..., 0]
+
+    fig = Figure(figsize=(11, 4.6), dpi=110, layout="constrained")
+    title = _title(meta)
+    if extra:
+        title += "; " + ", ".join(f"{a}={float(np.asarray(table[a])[0]):g}" for a in extra)
+    fig.suptitle(title, fontsize=11)
+    if not others:
+        ax = fig.add_subplot(1, 1, 1)
+        ax.plot(mu, E, "o-", ms=3, color="C0", label=r"$E(\mu)$")
+        ax.fill_between(mu, E - 2 * S, E + 2 * S, color="C0", alpha=0.25, lw=0)
+        ax.axhline(float(A), color="C1", ls="--", label=f"$E_{{avg}}$ = {float(A):.4f}")
+        ax.set_xlabel(r"$\mu = \cos\theta_o$")
+        ax.set_ylabel(r"$E(\mu)$")
+        ax.set_xlim(0, 1)
+        ax.grid(alpha=0.3)
+        ax.legend()
+    else:
+        p = others[0]
+        pv = np.asarray(table[p], dtype=float)
+        log = spacing.get(p) == "log"
+        ax1, ax2 = fig.add_subplot(1, 2, 1), fig.add_subplot(1, 2, 2)
+        n = len(pv)
+        pick = np.unique(np.round(np.linspace(0, n - 1, min(n, 7))).astype(int))
+        lo, hi = float(pv.min()), float(pv.max())
+        if hi <= lo:
+            hi = lo + (abs(lo) or 1) * 1e-6
+        norm = colors.LogNorm(lo, hi) if log and lo > 0 else colors.Normalize(lo, hi)
+        cmap = matplotlib.colormaps["viridis"]
+        for j in pick:
+            c = cmap(norm(pv[j]))
+            ax1.plot(mu, E[:, j], "-", color=c, lw=1.6, label=f"{p} = {pv[j]:.3g}")
+            ax1.fill_between(mu, E[:, j] - 2 * S[:, j], E[:, j] + 2 * S[:, j], color=c,
+                             alpha=0.25, lw=0)
+        sm = cm.ScalarMappable(norm=norm, cmap=cmap)
+        cb = fig.colorbar(sm, ax=ax1, pad=0.01)
+        cb.set_label(p)
+        ax1.legend(fontsize=8, loc="best", ncol=1 if len(pick) <= 4 else 2)
+        ax1.set_xlabel(r"$\mu = \cos\theta_o$")
+        ax1.set_ylabel(r"$E(\mu)$")
+        ax1.set_title(f"$E(\\mu)$ for {len(pick)} of {n} values of {p} "
+                      f"(bands: $\\pm 2$ stderr)", fontsize=10)
+        ax1.set_xlim(0, 1)
+        ax1.grid(alpha=0.3)
+        ax2.plot(pv, A, "o-", ms=3, color="C3")
+        ax2.fill_between(pv, A - 2 * AS, A + 2 * AS, color="C3", alpha=0.25, lw=0)
+        if log:
+            ax2.set_xscale("log")
+        ax2.set_xlabel(p)
+        ax2.set_ylabel(r"$E_{avg} = 2\int_0^1 E(\mu)\,\mu\,d\mu$")
+        ax2.set_title(f"$E_{{avg}}$ against {p}", fontsize=10)
+        ax2.grid(alpha=0.3)
+    fig.savefig(fileobj, format="png")
+
+
+# ---------------------------------------------------------------------------------------------
+# summary
+
+def _axis_text(name, values, spacing) -> str:
+    v = np.asarray(values, dtype=float)
+    sp = f", {spacing}" if spacing == "log" else ""
+    return f"{name} {len(v)} values in [{v.min():g}, {v.max():g}]{sp}"
+
+
+def summary(table: dict, seconds: float, written) -> str:
+    """A few lines: grid, time, min/max E, E_avg range, files written."""
+    meta = _meta(table)
+    names = _axes(table)
+    spacing = meta.get("spacing", {})
+    E = np.asarray(table["E"], dtype=float)
+    A = np.asarray(table["E_avg"], dtype=float)
+    grid = " x ".join(_axis_text(n, table[n], spacing.get(n, "lin")) for n in names)
+
+    def at(idx):
+        return ", ".join(f"{n}={float(np.asarray(table[n])[i]):.3g}" for n, i in zip(names, idx))
+    imin = np.unravel_index(int(np.argmin(E)), E.shape)
+    imax = np.unravel_index(int(np.argmax(E)), E.shape)
+    est = meta.get("estimator", "?") + (" + QMC" if meta.get("qmc") else "")
+    lines = [
+        f"{meta.get('model')} albedo table: {grid} = {E.size} points",
+        f"  {meta.get('samples')} samples per point, estimator {est}, seed {meta.get('seed')}, "
+        f"{meta.get('precision')} precision, {meta.get('device')}: {seconds:.1f} s",
+        f"  E      min {E.min():.5f} ({at(imin)}), max {E.max():.5f} ({at(imax)}), "
+        f"max stderr {np.max(table['E_stderr']):.1e}",
+    ]
+    others = [n for n in names if n != "mu"]
+    if others and A.ndim:
+        j0 = np.unravel_index(int(np.argmin(A)), A.shape)
+        j1 = np.unravel_index(int(np.argmax(A)), A.shape)
+
+        def at2(idx):
+            return ", ".join(f"{n}={float(np.asarray(table[n])[i]):.3g}"
+                             for n, i in zip(others, idx))
+        lines.append(f"  E_avg  min {A.min():.5f} ({at2(j0)}), max {A.max():.5f} ({at2(j1)}), "
+                     f"max stderr {np.max(table['E_avg_stderr']):.1e}")
+    else:
+        lines.append(f"  E_avg  {float(A):.5f} +- {float(np.max(table['E_avg_stderr'])):.1e}")
+    lines.append("  wrote " + ", ".join(str(p) for p in written))
+    return "\n".join(lines)
