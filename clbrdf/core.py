@@ -19,6 +19,7 @@ from .spec import ParameterError, check_directions, check_mu, finite_or_raise
 PRECISIONS = ("single", "double")
 ESTIMATORS = ("uniform", "cosine", "brdf", "mis")
 QMC_STREAMS = 16       # independent scrambles behind a quasi-Monte Carlo error estimate
+LAUNCH_SAMPLES = 1 << 27   # samples per kernel launch (at least one point); results do not depend on it
 
 
 def _dtype(precision: str):
@@ -231,7 +232,7 @@ def albedo(m: Model, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 <
     ctx, q = m.device.context, m.device.queue
     mf = cl.mem_flags
     # points per launch: about 2^27 samples, at least one point
-    chunk = max(1, min(npts, (1 << 27) // (blocks * build.BLOCK) or 1))
+    chunk = max(1, min(npts, LAUNCH_SAMPLES // (blocks * build.BLOCK) or 1))
     sums = np.empty((npts, streams, bps, 2), dtype=np.float64)
     t0 = time.perf_counter()
     bar = _progress(npts, progress)

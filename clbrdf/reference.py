@@ -397,16 +397,27 @@ def _panels(func, s0, s1, t0, t1, x, w):
     return i_s + i_t - i0, np.abs(i_s - i0), np.abs(i_t - i0)
 
 
-def adaptive_gl2(func, tol=1e-8, n=8, grid=(4, 8), max_evals=5e7):
+def graded_edges(levels=40):
+    """Panel edges on [0,1] graded geometrically towards both ends: 0, 2^-levels, ..., 1/4,
+    1/2, 3/4, ..., 1 - 2^-levels, 1. Features attached to an end at any scale down to 2^-levels
+    (a lobe's tail squeezed against the horizon, a kink near it) then fall on small panels,
+    where the error estimates see them."""
+    g = 2.0 ** -np.arange(levels, 1, -1)
+    return np.concatenate([[0], g, [0.25, 0.5, 0.75], 1 - g[::-1], [1]])
+
+
+def adaptive_gl2(func, tol=1e-8, n=8, s_edges=None, t_edges=None, max_evals=5e7):
     """Integral of func(s, t) over [0,1]^2 by n x n Gauss-Legendre panels, and an error estimate.
 
+    The initial panels are s_edges x t_edges (default: ``graded_edges()`` x 8 equal panels).
     Globally adaptive: while the panels' errors (see ``_panels``) sum to more than tol, the
     panels with the largest errors, enough that the others sum to at most tol/2, are split in
     the variable(s) whose error dominates. The returned error is that sum: on every panel two
     successive refinements agree within its share.
     """
     x, w = _rule(n)
-    s_edges, t_edges = np.linspace(0, 1, grid[0] + 1), np.linspace(0, 1, grid[1] + 1)
+    s_edges = graded_edges() if s_edges is None else np.asarray(s_edges, float)
+    t_edges = np.linspace(0, 1, 9) if t_edges is None else np.asarray(t_edges, float)
     S0, T0 = np.meshgrid(s_edges[:-1], t_edges[:-1], indexing="ij")
     S1, T1 = np.meshgrid(s_edges[1:], t_edges[1:], indexing="ij")
     s0, s1, t0, t1 = S0.ravel(), S1.ravel(), T0.ravel(), T1.ravel()
