@@ -145,6 +145,8 @@ class Model:
             raise ParameterError(f"u must have shape (..., 4), got {u.shape}")
         if np.any(~(u >= 0) | ~(u < 1)):
             raise ParameterError("u must lie in [0, 1)")
+        if self.dtype == np.float32:            # 1 - 1e-9 would round to 1.0f
+            u = np.minimum(u, float(np.nextafter(np.float32(1), np.float32(0))))
         wi, weight, pdf = self._batch("sample_batch", shape,
                                       [np.moveaxis(wo, -1, 0), np.moveaxis(u, -1, 0)], [3, 1, 1])
         return np.moveaxis(wi, 0, -1), weight[0], pdf[0]

@@ -20,18 +20,23 @@ inline realN fresnel_dielectric(realN eta, realN c)
     return sel((realN)0.5 * a * a * (1 + b * b), (realN)1, g2 < 0);
 }
 
-/* Unpolarised conductor with complex index eta + i k (Born & Wolf; real arithmetic form):
- * Rs = (a2+b2 - 2a c + c^2)/(a2+b2 + 2a c + c^2), Rp = Rs (..)/(..), F = (Rs + Rp)/2. */
+/* Unpolarised conductor with complex index eta + i k (Born & Wolf, real arithmetic form):
+ * with a^2 + b^2 = sqrt(t1^2 + 4 eta^2 k^2), a^2 - b^2 = t1 = eta^2 - k^2 - sin^2,
+ *   Rs = ((a - c)^2 + b^2) / ((a + c)^2 + b^2),
+ *   Rp = Rs ((a c - s^2)^2 + b^2 c^2) / ((a c + s^2)^2 + b^2 c^2),   F = (Rs + Rp) / 2.
+ * Written as sums of squares (not a2 + b2 + c^2 - 2ac, which cancels to F < 0 near eta = 1,
+ * k = 0); a^2 and b^2 each from the form without cancellation for the sign of t1. */
 inline realN fresnel_conductor(realN eta, realN k, realN c)
 {
-    realN c2 = c * c, s2 = 1 - c2, s4 = s2 * s2;
-    realN t1 = eta * eta - k * k - s2;
-    realN a2pb2 = sqrt(t1 * t1 + 4 * k * k * eta * eta);
-    realN a = safe_sqrt((realN)0.5 * (a2pb2 + t1));
-    realN term1 = a2pb2 + c2, term2 = 2 * a * c;
-    realN rs = (term1 - term2) / (term1 + term2);
-    realN term3 = a2pb2 * c2 + s4, term4 = term2 * s2;
-    realN rp = rs * (term3 - term4) / (term3 + term4);
+    realN c2 = c * c, s2 = 1 - c2;
+    realN t1 = eta * eta - k * k - s2, ek2 = 2 * eta * eta * k * k;
+    realN a2pb2 = sqrt(t1 * t1 + 2 * ek2);
+    realN a2 = sel((realN)0.5 * (a2pb2 + t1), ek2 / (a2pb2 - t1), t1 < 0);
+    realN b2 = sel((realN)0.5 * (a2pb2 - t1), ek2 / (a2pb2 + t1), t1 > 0);
+    realN a = sqrt(a2);
+    realN am = a - c, ap = a + c, pm = a * c - s2, pp = a * c + s2, b2c2 = b2 * c2;
+    realN rs = (am * am + b2) / (ap * ap + b2);
+    realN rp = rs * (pm * pm + b2c2) / (pp * pp + b2c2);
     return (realN)0.5 * (rp + rs);
 }
 

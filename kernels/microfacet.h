@@ -76,8 +76,10 @@ inline realN mf_G(Microfacet m, vec3 wi, vec3 wo, vec3 h)
 #elif MF_MASKING == MASKING_SEPARABLE
     return mf_G1(m, wi) * mf_G1(m, wo);
 #elif MF_MASKING == MASKING_VCAVITY
-    realN k = 2 * h.z / dot3(wo, h);
-    return fmin((realN)1, k * fmin(wi.z, wo.z));
+    /* Cook-Torrance 1982 eq 2 with the indicator of wo . h > 0 (rounding can make it <= 0
+     * when wi ~ -wo) */
+    realN oh = dot3(wo, h);
+    return sel(fmin((realN)1, 2 * h.z * fmin(wi.z, wo.z) / oh), (realN)0, oh <= 0);
 #else
     return (realN)1;
 #endif

@@ -36,14 +36,15 @@ inline uint4N philox4x32_10(uint4N c, uint k0, uint k1)
     return c;
 }
 
-/* 32 random bits to a real in the open interval (0, 1): the centre of one of 2^24
- * (single) or 2^32 (double) equal cells, so log(u) and log(1 - u) are always finite. */
+/* 32 random bits to a real in the open interval (0, 1): the centre of one of 2^23
+ * (single) or 2^32 (double) equal cells, so log(u) and log(1 - u) are always finite.
+ * Single precision keeps 23 bits: a centre (k + 1/2) 2^-24 with k >= 2^23 is not a float. */
 inline realN bits_to_unit(uintN x)
 {
 #if CLBRDF_DOUBLE
     return (convert_realN(x) + (realN)0.5) * (realN)2.3283064365386963e-10;
 #else
-    return (convert_realN(x >> 8) + (realN)0.5) * (realN)5.9604644775390625e-08;
+    return (convert_realN(x >> 9) + (realN)0.5) * (realN)1.1920928955078125e-07;
 #endif
 }
 

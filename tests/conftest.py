@@ -1,0 +1,72 @@
+"""Shared fixtures for the clbrdf tests.
+
+Chi-square tests carry the marker ``chisquare(n)`` (n statistical tests in one test item). After
+collection and deselection (``-m``, ``-k``), the number of chi-square tests that will run is
+counted, and the fixture ``chi2_alpha`` gives each the Sidak-corrected significance that keeps
+the probability of any false rejection in the run at ``CHI2_FAMILY_ALPHA`` = 0.01.
+"""
+import hashlib
+
+import numpy as np
+import pytest
+
+import stats
+
+CHI2_FAMILY_ALPHA = 0.01
+
+
+def pytest_configure(config):
+    config.addinivalue_line(
+        "markers", "chisquare(n=1): the test performs n chi-square tests; their significance is "
+        "Sidak-corrected over all chi-square tests selected in the run")
+
+
+def _chi2_count(item):
+    m = item.get_closest_marker("chisquare")
+    if m is None:
+        return 0
+    return int(m.kwargs.get("n", m.args[0] if m.args else 1))
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_collection_modifyitems(session, config, items):
+    # trylast: runs after the mark plugin has removed the deselected items
+    config._clbrdf_chi2_tests = sum(_chi2_count(it) for it in items)
+
+
+@pytest.fixture(scope="session")
+def chi2_alpha(request):
+    """Per-test significance: Sidak over the chi-square tests of this run."""
+    k = getattr(request.config, "_clbrdf_chi2_tests", 1) or 1
+    return stats.sidak(CHI2_FAMILY_ALPHA, k)
+
+
+@pytest.fixture(scope="session")
+def clbrdf_device():
+    """The library's default device (skips the run's device tests if there is none)."""
+    import clbrdf
+    try:
+        return clbrdf.get_device()
+    except clbrdf.DeviceError as e:  # pragma: no cover - depends on the machine
+        pytest.skip(f"no OpenCL device: {e}")
+
+
+@pytest.fixture(scope="module")
+def model_cache(clbrdf_device):
+    """get(name, precision=..., width=..., **kw) -> clbrdf.Model, one per configuration per
+    module. (Programs are also cached by the library per source text, so each kernel
+    configuration compiles once per process.)"""
+    import clbrdf
+    cache = {}
+
+    def get(name, **kw):
+        def ident(v):
+            if isinstance(v, str):
+                return v
+            a = np.ascontiguousarray(v, dtype=np.float64)
+            return (a.shape, hashlib.sha1(a.tobytes()).hexdigest())
+        key = (name, tuple(sorted((k, ident(v)) for k, v in kw.items())))
+        if key not in cache:
+            cache[key] = clbrdf.Model(name, device=clbrdf_device, **kw)
+        return cache[key]
+    return get
