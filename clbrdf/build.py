@@ -54,14 +54,20 @@ def program_source(cfg: Config, precision: str, width: int, *, estimator: str = 
     lines = [f"#define CLBRDF_DOUBLE {int(precision == 'double')}", f"#define W {width}",
              f"#define BLOCK {BLOCK}", f"#define MODEL {cfg.prefix}",
              f"#define ESTIMATOR ESTIMATOR_{estimator.upper()}", f"#define RNG rand_{rng}",
-             f"#define RNG_PHILOX {int(rng == 'philox')}"]
+             f"#define RNG_PHILOX {int(rng == 'philox')}", f"#define CHANNELS {cfg.channels}"]
     lines += [f"#define {k} {v}" for k, v in cfg.defines]
-    params = " ".join(f"X({n}, {i})" for i, n in enumerate(cfg.param_names))
-    lines.append(f"#define PARAMS(X) {params}")
+    # X(name, row) for scalars, XS(name, first row) for spectral parameters (CHANNELS rows)
+    items, fields, row = [], [], 0
+    for n in cfg.param_names:
+        spectral = n in cfg.spectral
+        items.append(f"{'XS' if spectral else 'X'}({n}, {row})")
+        fields.append(f"    realN {n}{'[CHANNELS]' if spectral else ''};")
+        row += cfg.rows(n)
+    lines.append(f"#define PARAMS(X, XS) {' '.join(items)}")
     seen: set = set()
     body = [expand(f, seen) for f in ("common.h", "rng.h", "warp.h")]
-    field = "\n".join(f"    realN {n};" for n in cfg.param_names)
-    body.append(f"typedef struct {{\n{field}\n}} Params;\n")
+    body.append("typedef struct {\n" + "\n".join(fields) + "\n} Params;\n")
+    body += [expand(h, seen) for h in cfg.headers]
     body.append(expand(cfg.header, seen))
     body.append(expand("integrators.cl", seen))
     return "\n".join(lines) + "\n" + "\n".join(body)

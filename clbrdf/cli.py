@@ -49,7 +49,8 @@ def _number(text: str, what: str) -> float:
 
 def parse_params(spec, items) -> dict:
     """``NAME=VALUE`` strings -> keyword arguments: options stay strings, parameters become
-    floats (range checks are the model's)."""
+    floats (range checks are the model's). A per-channel parameter given as three values
+    (``kd=0.2,0.3,0.4``) makes the model RGB (``channels=3``)."""
     out: dict = {}
     option_names = {o.name for o in spec.options}
     for item in items or ():
@@ -65,11 +66,19 @@ def parse_params(spec, items) -> dict:
             out[name] = value
             continue
         p = spec.param(name)            # unknown names: ParameterError listing the valid ones
+        parts = value.split(",")
+        if len(parts) > 1 and not (p.spectral and len(parts) == 3):
+            raise ParameterError(f"parameter {name}={value!r}: " + (
+                "a per-channel parameter takes one value or three (R,G,B)" if p.spectral else
+                f"{name} takes one value (it is not per channel)"))
         try:
-            out[name] = float(value)
+            v = [float(x) for x in parts]
         except ValueError:
             raise ParameterError(f"parameter {name}={value!r} is not a number: valid {name} is in "
                                  f"{p.range_text()} ({p.meaning})") from None
+        out[name] = v[0] if len(v) == 1 else v
+        if len(v) == 3:
+            out["channels"] = 3
     return out
 
 
@@ -202,7 +211,8 @@ def cmd_models(args) -> int:
         print(json.dumps({s.name: {
             "title": s.title, "reference": s.reference,
             "params": {p.name: {"meaning": p.meaning, "range": p.range_text(), "lo": p.lo,
-                                "hi": p.hi, "lo_open": p.lo_open, "default": p.default}
+                                "hi": p.hi, "lo_open": p.lo_open, "default": p.default,
+                                "per_channel": p.spectral}
                        for p in s.params},
             "options": {o.name: {"meaning": o.meaning, "choices": list(o.choices),
                                  "default": o.default} for o in s.options}}
@@ -218,7 +228,7 @@ def cmd_models(args) -> int:
         wr = max(len(p.range_text()) for p in s.params)
         for p in s.params:
             print(f"    {p.name.ljust(wn)}  {p.range_text().ljust(wr)}  default {p.default:<7g} "
-                  f"{p.meaning}")
+                  f"{p.meaning}{' (per channel: one value or R,G,B)' if p.spectral else ''}")
         if s.options:
             print("  options (--param NAME=CHOICE):")
             wo = max(len(o.name) for o in s.options)
@@ -241,20 +251,26 @@ def cmd_eval(args) -> int:
     wi = check_directions("wi", parse_vector(args.wi, "wi"))
     wo = check_directions("wo", parse_vector(args.wo, "wo"))
     m = _model(spec.name, args, params)
-    value = float(m.eval(wi, wo))
+    f = np.asarray(m.eval(wi, wo), dtype=float)
+    value = f.tolist()
     if args.json:
         d = m.describe()
         print(json.dumps({"model": d.pop("model"), "params": d, "wi": wi.tolist(),
                           "wo": wo.tolist(), "value": value, "precision": m.precision,
                           "device": m.device.info.name}))
     else:
-        print(f"{value:.9g}")
+        print(" ".join(f"{x:.9g}" for x in np.ravel(f)))
     return 0
 
 
 def _describe(d: dict) -> str:
-    return " ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
-                    for k, v in d.items() if k != "model")
+    def fmt(v):
+        if isinstance(v, float):
+            return f"{v:g}"
+        if isinstance(v, list):
+            return ",".join(f"{x:g}" for x in v)
+        return str(v)
+    return " ".join(f"{k}={fmt(v)}" for k, v in d.items() if k != "model")
 
 
 def cmd_albedo(args) -> int:
@@ -276,9 +292,15 @@ def cmd_albedo(args) -> int:
     print(f"estimator {args.estimator}{' (qmc)' if args.qmc else ''}, {r.samples} samples per "
           f"point, seed {args.seed}, {m.precision} precision, phi {phi:g}, "
           f"{m.device.info.name}, {r.seconds:.3g} s")
-    print(f"{'mu':>10}  {'albedo':>10}  {'stderr':>10}")
-    for x, e, s in zip(np.ravel(r.mu), np.ravel(r.albedo), np.ravel(r.stderr)):
-        print(f"{x:>10.6g}  {e:>10.6f}  {s:>10.2e}")
+    if m.channels == 1:
+        print(f"{'mu':>10}  {'albedo':>10}  {'stderr':>10}")
+        for x, e, s in zip(np.ravel(r.mu), np.ravel(r.albedo), np.ravel(r.stderr)):
+            print(f"{x:>10.6g}  {e:>10.6f}  {s:>10.2e}")
+        return 0
+    print(f"{'mu':>10}  " + "  ".join(f"{'albedo ' + c:>10}  {'stderr':>8}" for c in "RGB"))
+    E, S = r.albedo.reshape(-1, 3), r.stderr.reshape(-1, 3)
+    for x, e, s in zip(np.ravel(r.mu), E, S):
+        print(f"{x:>10.6g}  " + "  ".join(f"{a:>10.6f}  {b:>8.1e}" for a, b in zip(e, s)))
     return 0
 
 
@@ -323,7 +345,7 @@ def cmd_table(args) -> int:
     meta = json.loads(table["metadata"])
     # every fixed parameter, defaults included, and the options given
     cfg, values = spec.configure(**params, **{a: v[0] for a, v in axes.items() if a != "mu"})
-    meta["fixed"] = {**{k: float(values[k]) for k in cfg.param_names if k not in axes},
+    meta["fixed"] = {**{k: values[k].tolist() for k in cfg.param_names if k not in axes},
                      **{k: v for k, v in params.items() if isinstance(v, str)}}
     meta["spacing"] = spacing
     meta["command"] = " ".join(["clbrdf"] + [_quote(a) for a in args.argv])

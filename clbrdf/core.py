@@ -41,13 +41,15 @@ class Model:
 
     Parameters may be arrays; they broadcast with the directions. ``precision`` is ``single`` or
     ``double``; ``width`` the lanes per work-item (default: 16 single / 8 double on a CPU, 1 on
-    a GPU); ``device`` a selector (see ``clbrdf.device``).
+    a GPU); ``device`` a selector (see ``clbrdf.device``). ``channels=3`` makes the model RGB:
+    parameters marked per channel take a trailing axis of 3 (``kd=[0.2, 0.3, 0.4]``), and values,
+    sample weights and albedos get a trailing axis of 3.
     """
 
     def __init__(self, name: str, *, precision: str = "single", device=None, width: int | None = None,
-                 **params):
+                 channels: int = 1, **params):
         self.spec = get_spec(name)
-        self.config, self.params = self.spec.configure(**params)
+        self.config, self.params = self.spec.configure(channels=channels, **params)
         self.precision = _check_choice("precision", precision, PRECISIONS)
         self.device: Device = get_device(device)
         self.width = width or self.device.default_width(precision)
@@ -58,6 +60,10 @@ class Model:
     @property
     def name(self) -> str:
         return self.spec.name
+
+    @property
+    def channels(self) -> int:
+        return self.config.channels
 
     @property
     def options(self) -> dict:
@@ -85,8 +91,21 @@ class Model:
             out[j, n:] = out[j, n - 1] if n else 0    # pad with a valid value
         return out
 
+    def _param_rows(self):
+        """The parameter block's rows: one per scalar parameter, one per channel of a spectral one."""
+        rows = []
+        for k in self.config.param_names:
+            v = self.params[k]
+            rows += [v[..., c] for c in range(self.channels)] if k in self.config.spectral and \
+                self.channels > 1 else [v]
+        return rows
+
     def _param_block(self, shape, n_pad):
-        return self._soa(shape, [self.params[k] for k in self.config.param_names], n_pad)
+        return self._soa(shape, self._param_rows(), n_pad)
+
+    def _channel_axis(self, a):
+        """(channels, ...) -> (...) for one channel, (..., channels) otherwise."""
+        return a[0] if self.channels == 1 else np.moveaxis(a, 0, -1)
 
     def _batch(self, kernel: str, shape, inputs: list[np.ndarray], outputs: list[int]):
         import pyopencl as cl
@@ -109,7 +128,7 @@ class Model:
         return [h[:, :n].reshape((h.shape[0],) + shape) for h in host_out]
 
     def _shape(self, *dirs):
-        shapes = [np.shape(v) for v in self.params.values()] + [d.shape[:-1] for d in dirs]
+        shapes = [r.shape for r in self._param_rows()] + [d.shape[:-1] for d in dirs]
         try:
             return np.broadcast_shapes(*shapes)
         except ValueError as e:
@@ -117,12 +136,14 @@ class Model:
 
     # ---- public API ----
     def eval(self, wi, wo) -> np.ndarray:
-        """BRDF value f(wi, wo) in 1/sr; 0 where either direction is below the horizon."""
+        """BRDF value f(wi, wo) in 1/sr (shape (..., 3) for an RGB model); 0 where either
+        direction is below the horizon."""
         wi = check_directions("wi", wi, allow_below=True)
         wo = check_directions("wo", wo, allow_below=True)
         shape = self._shape(wi, wo)
-        (f,) = self._batch("eval_batch", shape, [np.moveaxis(wi, -1, 0), np.moveaxis(wo, -1, 0)], [1])
-        return f[0]
+        (f,) = self._batch("eval_batch", shape, [np.moveaxis(wi, -1, 0), np.moveaxis(wo, -1, 0)],
+                           [self.channels])
+        return self._channel_axis(f)
 
     def pdf(self, wo, wi) -> np.ndarray:
         """Density (1/sr) of wi under the model's sampler, given wo."""
@@ -135,7 +156,7 @@ class Model:
     def sample(self, wo, u=None, *, seed: int = 0, qmc: bool = False):
         """Importance-sample wi given wo. ``u``: uniform numbers of shape (..., 4); if omitted they
         are drawn from the library's generator keyed by (seed, index). Returns (wi, weight, pdf),
-        weight = f cos(theta_i) / pdf (0 for a sample below the horizon)."""
+        weight = f cos(theta_i) / pdf (0 for a sample below the horizon; (..., 3) for RGB)."""
         wo = check_directions("wo", wo)
         shape = self._shape(wo) if u is None else self._shape(wo, np.asarray(u)[..., :3])
         if u is None:
@@ -148,8 +169,9 @@ class Model:
         if self.dtype == np.float32:            # 1 - 1e-9 would round to 1.0f
             u = np.minimum(u, float(np.nextafter(np.float32(1), np.float32(0))))
         wi, weight, pdf = self._batch("sample_batch", shape,
-                                      [np.moveaxis(wo, -1, 0), np.moveaxis(u, -1, 0)], [3, 1, 1])
-        return np.moveaxis(wi, 0, -1), weight[0], pdf[0]
+                                      [np.moveaxis(wo, -1, 0), np.moveaxis(u, -1, 0)],
+                                      [3, self.channels, 1])
+        return np.moveaxis(wi, 0, -1), self._channel_axis(weight), pdf[0]
 
     def random(self, n: int, *, seed: int = 0, point: int = 0, stream: int = 0, qmc: bool = False):
         """(n, 4) uniform numbers of sample indices 0..n-1 from the kernels' generator
@@ -235,7 +257,8 @@ def albedo(m: Model, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 <
     mf = cl.mem_flags
     # points per launch: about 2^27 samples, at least one point
     chunk = max(1, min(npts, LAUNCH_SAMPLES // (blocks * build.BLOCK) or 1))
-    sums = np.empty((npts, streams, bps, 2), dtype=np.float64)
+    nch = m.channels
+    sums = np.empty((npts, streams, bps, nch, 2), dtype=np.float64)
     t0 = time.perf_counter()
     bar = _progress(npts, progress)
     params_full = m._param_block(shape, npts)
@@ -248,27 +271,28 @@ def albedo(m: Model, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 <
         bp = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=P) if P.size else \
             cl.Buffer(ctx, mf.READ_ONLY, 8)
         bw = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=WO)
-        out = np.empty(k * blocks * 2, dtype=m.dtype)
+        out = np.empty(k * blocks * nch * 2, dtype=m.dtype)
         bo = cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes)
         kernel(q, (k * blocks,), None, bp, bw, np.uint64(k), np.uint64(start),
                            np.uint32(blocks), np.uint32(per_stream), lo, hi, np.uint32(bps), bo)
         cl.enqueue_copy(q, out, bo)
         q.finish()
-        sums[start:stop] = out.reshape(k, streams, bps, 2)
+        sums[start:stop] = out.reshape(k, streams, bps, nch, 2)
         bar.update(k)
     bar.close()
     seconds = time.perf_counter() - t0
-    s = sums.sum(axis=2)                            # (npts, streams, 2), fixed order
+    s = sums.sum(axis=2)                            # (npts, streams, channels, 2), fixed order
     if qmc:
         means = s[..., 0] / per_stream
         est = means.mean(axis=1)
         err = means.std(axis=1, ddof=1) / math.sqrt(streams)
     else:
         n = per_stream
-        est = s[:, 0, 0] / n
-        var = np.maximum(s[:, 0, 1] / n - est * est, 0.0) * n / (n - 1)
+        est = s[:, 0, :, 0] / n
+        var = np.maximum(s[:, 0, :, 1] / n - est * est, 0.0) * n / (n - 1)
         err = np.sqrt(var / n)
-    return AlbedoResult(est.reshape(shape), err.reshape(shape), np.broadcast_to(mu, shape),
+    cshape = shape if nch == 1 else shape + (nch,)
+    return AlbedoResult(est.reshape(cshape), err.reshape(cshape), np.broadcast_to(mu, shape),
                         estimator, per_stream * streams, qmc, int(seed), m.precision, seconds,
                         m.describe())
 
@@ -309,7 +333,7 @@ def albedo_avg(m: Model, *, nodes: int = GAUSS_NODES, **kw):
     wgt = 0.5 * wgt
     pshape = m._shape()
     r = albedo(m, mu.reshape((nodes,) + (1,) * len(pshape)), **kw)
-    c = (2 * wgt * mu).reshape((nodes,) + (1,) * len(pshape))
+    c = (2 * wgt * mu).reshape((nodes,) + (1,) * (r.albedo.ndim - 1))
     return (c * r.albedo).sum(axis=0), np.sqrt(((c * r.stderr) ** 2).sum(axis=0))
 
 
@@ -332,6 +356,9 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
         raise ParameterError("a table needs a mu axis (--axis mu=START:STOP:COUNT)")
     r = albedo(m, mu, samples=samples, estimator=estimator, seed=seed, qmc=qmc, progress=progress)
     out["E"], out["E_stderr"] = r.albedo, r.stderr
+    if m.channels > 1:                  # RGB: a last axis "channel" (0, 1, 2 = R, G, B)
+        out["channel"] = np.arange(m.channels, dtype=np.float64)
+        names = names + ["channel"]
     # E_avg over the other axes: the model at the first mu index
     other = {k: v.take(0, axis=names.index("mu")) for k, v in grid.items()}
     ma = Model(name, precision=precision, device=device, **fixed, **other)

@@ -24,6 +24,7 @@ class Param:
     hi: float
     default: float
     lo_open: bool = False          # lo itself excluded
+    spectral: bool = False         # one value per colour channel when the model has channels=3
 
     def range_text(self) -> str:
         return f"{'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}]"
@@ -60,9 +61,17 @@ class Config:
     defines: tuple[tuple[str, str], ...]
     param_names: tuple[str, ...]
     options: tuple[tuple[str, str], ...]
+    channels: int = 1                # 1, or 3 (RGB)
+    spectral: tuple[str, ...] = ()   # parameters with one value per channel
+    headers: tuple[str, ...] = ()    # extra kernel headers, included before ``header``
 
     def key(self):
-        return (self.header, self.prefix, self.defines, self.param_names)
+        return (self.header, self.prefix, self.defines, self.param_names, self.channels,
+                self.spectral, self.headers)
+
+    def rows(self, name: str) -> int:
+        """Rows of the parameter block that parameter ``name`` takes."""
+        return self.channels if name in self.spectral else 1
 
 
 @dataclass
@@ -104,13 +113,22 @@ class ModelSpec:
                 params[k] = v
         return opts, params
 
-    def configure(self, **kwargs) -> tuple[Config, dict[str, np.ndarray]]:
-        """Config and validated parameter arrays (not yet broadcast) for these arguments."""
+    def configure(self, channels: int = 1, **kwargs) -> tuple[Config, dict[str, np.ndarray]]:
+        """Config and validated parameter arrays (not yet broadcast) for these arguments.
+
+        With ``channels=3`` a spectral parameter's array has a trailing axis of length 3 (one
+        value per channel; a scalar is used for all three)."""
+        if channels not in (1, 3):
+            raise ParameterError(f"channels={channels!r} is not valid: choose 1 or 3 (RGB)")
         opts, given = self.split(kwargs)
+        headers = ()
         if self.configure_fn is None:
             defines, used, resolved = (), tuple(p.name for p in self.params), {}
         else:
-            defines, used, resolved = self.configure_fn(opts, set(given))
+            r = self.configure_fn(opts, set(given))
+            defines, used, resolved = r[:3]
+            if len(r) > 3:
+                headers = tuple(r[3])
         unused = set(given) - set(used)
         if unused:
             name = sorted(unused)[0]
@@ -120,10 +138,20 @@ class ModelSpec:
         for name in used:
             p = self.param(name)
             v = np.asarray(given.get(name, p.default), dtype=np.float64)
+            if p.spectral and channels > 1:
+                if v.ndim == 0:
+                    v = np.broadcast_to(v, (channels,))
+                elif v.shape[-1] not in (1, channels):
+                    raise ParameterError(
+                        f"parameter {name} is per channel: with channels={channels} its last axis "
+                        f"must have length {channels} (or 1), got shape {v.shape}")
+                else:
+                    v = np.broadcast_to(v, v.shape[:-1] + (channels,))
             p.check(v)
             values[name] = v
+        spectral = tuple(n for n in used if self.param(n).spectral)
         cfg = Config(self.name, self.header, self.prefix, tuple(defines), tuple(used),
-                     tuple(sorted(resolved.items())))
+                     tuple(sorted(resolved.items())), channels, spectral, headers)
         return cfg, values
 
 

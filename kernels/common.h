@@ -3,6 +3,7 @@
  * Build options (all optional):
  *   -DCLBRDF_DOUBLE=1   double precision (needs cl_khr_fp64); single otherwise
  *   -DW=16              lanes per work-item: 1 (scalar, GPU), 2, 4, 8 or 16 (CPU SIMD)
+ *   -DCHANNELS=3        colour channels of a model's value (1 by default)
  *
  * Every function works on `realN`, a vector of W lanes (or a scalar when W == 1),
  * and is branch-free: lane masks come from comparisons and are consumed by sel(), which is
@@ -124,8 +125,37 @@ inline realN sincos_r(realN x, realN *c)
 }
 inline realN safe_sqrt(realN x) { return sqrt(fmax(x, (realN)0)); }
 
-/* A sampled direction: wi, the estimator weight f cos(theta_i) / pdf, and pdf (1/sr). */
-typedef struct { vec3 wi; realN weight; realN pdf; } BSample;
+/* A spectrum: CHANNELS values (1, or 3 for RGB; the host defines CHANNELS). Models loop over
+ * channels with `for (int c = 0; c < CHANNELS; ++c)`, which the compiler unrolls. */
+#ifndef CHANNELS
+#define CHANNELS 1
+#endif
+typedef struct { realN c[CHANNELS]; } spec;
+
+inline spec spec_splat(realN v)
+{
+    spec s;
+    for (int c = 0; c < CHANNELS; ++c)
+        s.c[c] = v;
+    return s;
+}
+
+inline spec spec_scale(spec s, realN v)
+{
+    for (int c = 0; c < CHANNELS; ++c)
+        s.c[c] *= v;
+    return s;
+}
+
+inline spec spec_sel(spec a, spec b, maskN m)
+{
+    for (int c = 0; c < CHANNELS; ++c)
+        a.c[c] = sel(a.c[c], b.c[c], m);
+    return a;
+}
+
+/* A sampled direction: wi, the estimator weight f cos(theta_i) / pdf per channel, and pdf (1/sr). */
+typedef struct { vec3 wi; spec weight; realN pdf; } BSample;
 
 /* Inverse error function. Giles, "Approximating the erfinv function" (GPU Gems 4, 2010),
  * single-precision polynomials; in double precision refined by two Newton steps on erf. */

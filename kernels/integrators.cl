@@ -2,14 +2,17 @@
  * provides MODEL_eval, MODEL_pdf and MODEL_sample on a Params struct.
  *
  * The host defines before this file:
- *   PARAMS(X)   X(name, index) for each parameter of the configuration
+ *   PARAMS(X, XS)  X(name, row) for each scalar parameter of the configuration, XS(name, row)
+ *               for each spectral one (rows row .. row + CHANNELS - 1)
+ *   CHANNELS    1, or 3 (RGB): a model's value and weight have CHANNELS components
  *   MODEL       the model's function prefix (lambert, microfacet, ...)
  *   ESTIMATOR   ESTIMATOR_UNIFORM | ESTIMATOR_COSINE | ESTIMATOR_BRDF | ESTIMATOR_MIS
  *   RNG         rand_philox | rand_sobol (RNG_PHILOX 1 for the first)
  *   BLOCK       samples per work-item in the albedo kernel (a multiple of W)
  * and includes the model header after common.h, rng.h, warp.h (see clbrdf/build.py).
  *
- * Parameter arrays are structure-of-arrays: parameter j of query i at P[j * stride + i].
+ * Parameter arrays are structure-of-arrays: row j of query i at P[j * stride + i]; outputs with
+ * channels likewise (channel c of query i at out[c * stride + i]).
  */
 
 #define ESTIMATOR_UNIFORM 0
@@ -34,8 +37,10 @@ inline Params load_params(const global real_t *P, ulong stride, ulong i)
 {
     Params p;
 #define LOAD_ONE(name, j) p.name = VLOAD(P + (j) * stride + i);
-    PARAMS(LOAD_ONE)
+#define LOAD_SPEC(name, j) for (int c = 0; c < CHANNELS; ++c) p.name[c] = VLOAD(P + ((j) + c) * stride + i);
+    PARAMS(LOAD_ONE, LOAD_SPEC)
 #undef LOAD_ONE
+#undef LOAD_SPEC
     return p;
 }
 
@@ -44,14 +49,22 @@ inline Params splat_params(const global real_t *P, ulong stride, ulong i)
 {
     Params p;
 #define SPLAT_ONE(name, j) p.name = (realN)P[(j) * stride + i];
-    PARAMS(SPLAT_ONE)
+#define SPLAT_SPEC(name, j) for (int c = 0; c < CHANNELS; ++c) p.name[c] = (realN)P[((j) + c) * stride + i];
+    PARAMS(SPLAT_ONE, SPLAT_SPEC)
 #undef SPLAT_ONE
+#undef SPLAT_SPEC
     return p;
 }
 
 inline vec3 load_dir(const global real_t *D, ulong stride, ulong i)
 {
     return v3(VLOAD(D + i), VLOAD(D + stride + i), VLOAD(D + 2 * stride + i));
+}
+
+inline void store_spec(spec v, global real_t *out, ulong stride, ulong i)
+{
+    for (int c = 0; c < CHANNELS; ++c)
+        VSTORE(v.c[c], out + c * stride + i);
 }
 
 inline void store_dir(vec3 v, global real_t *D, ulong stride, ulong i)
@@ -69,7 +82,7 @@ __kernel void eval_batch(const global real_t *P, const global real_t *WI, const 
     ulong i = get_global_id(0) * W;
     if (i >= n) return;
     Params p = load_params(P, n, i);
-    VSTORE(BRDF(eval)(&p, load_dir(WI, n, i), load_dir(WO, n, i)), out + i);
+    store_spec(BRDF(eval)(&p, load_dir(WI, n, i), load_dir(WO, n, i)), out, n, i);
 }
 
 __kernel void pdf_batch(const global real_t *P, const global real_t *WO, const global real_t *WI,
@@ -91,7 +104,7 @@ __kernel void sample_batch(const global real_t *P, const global real_t *WO, cons
     rand4 u = {VLOAD(U + i), VLOAD(U + n + i), VLOAD(U + 2 * n + i), VLOAD(U + 3 * n + i)};
     BSample s = BRDF(sample)(&p, load_dir(WO, n, i), u);
     store_dir(s.wi, WI, n, i);
-    VSTORE(s.weight, weight + i);
+    store_spec(s.weight, weight, n, i);
     VSTORE(s.pdf, pdf + i);
 }
 
@@ -110,15 +123,15 @@ __kernel void random_batch(const ulong n, const uint point, const uint stream, c
 
 /* ---- directional albedo ---- */
 
-/* One estimate of E(wo) = integral f cos dwi from the four numbers u. */
-inline realN albedo_estimate(const Params *p, vec3 wo, rand4 u)
+/* One estimate of E(wo) = integral f cos dwi (per channel) from the four numbers u. */
+inline spec albedo_estimate(const Params *p, vec3 wo, rand4 u)
 {
 #if ESTIMATOR == ESTIMATOR_UNIFORM
     vec3 wi = square_to_uniform_hemisphere(u.u0, u.u1);
-    return BRDF(eval)(p, wi, wo) * wi.z * (2 * PI_R);
+    return spec_scale(BRDF(eval)(p, wi, wo), wi.z * (2 * PI_R));
 #elif ESTIMATOR == ESTIMATOR_COSINE
     vec3 wi = square_to_cosine_hemisphere(u.u0, u.u1);
-    return BRDF(eval)(p, wi, wo) * PI_R;
+    return spec_scale(BRDF(eval)(p, wi, wo), PI_R);
 #elif ESTIMATOR == ESTIMATOR_BRDF
     return BRDF(sample)(p, wo, u).weight;
 #else
@@ -127,18 +140,20 @@ inline realN albedo_estimate(const Params *p, vec3 wo, rand4 u)
      * A BRDF sample reuses its own weight f cos / pdf_b, computed from its half vector: recomputing
      * f and pdf_b from wi + wo loses the lobe in single precision at grazing angles. */
     BSample sb = BRDF(sample)(p, wo, u);
-    realN vb = sb.weight / ((realN)0.5 + (realN)0.5 * cosine_hemisphere_pdf(sb.wi) / sb.pdf);
-    vb = sel((realN)0, vb, sb.pdf > 0);
+    realN rb = sel((realN)0, 1 / ((realN)0.5 + (realN)0.5 * cosine_hemisphere_pdf(sb.wi) / sb.pdf),
+                   sb.pdf > 0);
     vec3 wc = square_to_cosine_hemisphere(u.u0, u.u1);
     realN qc = (realN)0.5 * (BRDF(pdf)(p, wo, wc) + cosine_hemisphere_pdf(wc));
-    realN vc = sel((realN)0, BRDF(eval)(p, wc, wo) * wc.z / qc, qc > 0);
-    return sel(vc, vb, u.u3 < (realN)0.5);
+    realN rc = sel((realN)0, wc.z / qc, qc > 0);
+    return spec_sel(spec_scale(BRDF(eval)(p, wc, wo), rc), spec_scale(sb.weight, rb),
+                    u.u3 < (realN)0.5);
 #endif
 }
 
 /* Work-item g: point g / blocks, block g % blocks, samples [block BLOCK, block BLOCK + BLOCK) of
  * the point's stream; samples at or past `samples` count as 0. Writes the block's sum and sum of
- * squares; the host adds blocks in a fixed order. */
+ * squares per channel (out[2 (CHANNELS g + c)], out[2 (CHANNELS g + c) + 1]); the host adds
+ * blocks in a fixed order. */
 __kernel void albedo_blocks(const global real_t *P, const global real_t *WO, const ulong npoints,
                             const ulong point0, const uint blocks, const uint samples,
                             const uint seed_lo, const uint seed_hi, const uint blocks_per_stream,
@@ -153,7 +168,9 @@ __kernel void albedo_blocks(const global real_t *P, const global real_t *WO, con
     vec3 wo = v3((realN)WO[local_point], (realN)WO[npoints + local_point], (realN)WO[2 * npoints + local_point]);
     uint stream = block / blocks_per_stream;
     uint first = (block % blocks_per_stream) * BLOCK;
-    realN sum = 0, sum2 = 0;
+    realN sum[CHANNELS], sum2[CHANNELS];
+    for (int c = 0; c < CHANNELS; ++c)
+        sum[c] = sum2[c] = 0;
 #if RNG_PAIRS
     /* The estimate needs two numbers: one Philox call serves samples 2c and 2c + 1
      * (words 0-1 and 2-3 of counter c), halving the generator's cost. */
@@ -163,20 +180,29 @@ __kernel void albedo_blocks(const global real_t *P, const global real_t *WO, con
         r = philox4x32_10(r, seed_lo, seed_hi);
         rand4 ua = {bits_to_unit(r.c0), bits_to_unit(r.c1), (realN)0.5, (realN)0.5};
         rand4 ub = {bits_to_unit(r.c2), bits_to_unit(r.c3), (realN)0.5, (realN)0.5};
-        realN va = sel((realN)0, albedo_estimate(&p, wo, ua), TO_MASK(2 * c < (uintN)samples));
-        realN vb = sel((realN)0, albedo_estimate(&p, wo, ub), TO_MASK(2 * c + 1 < (uintN)samples));
-        sum += va + vb;
-        sum2 += va * va + vb * vb;
+        spec ea = albedo_estimate(&p, wo, ua), eb = albedo_estimate(&p, wo, ub);
+        maskN ma = TO_MASK(2 * c < (uintN)samples), mb = TO_MASK(2 * c + 1 < (uintN)samples);
+        for (int ch = 0; ch < CHANNELS; ++ch) {
+            realN va = sel((realN)0, ea.c[ch], ma), vb = sel((realN)0, eb.c[ch], mb);
+            sum[ch] += va + vb;
+            sum2[ch] += va * va + vb * vb;
+        }
     }
 #else
     for (uint k = 0; k < BLOCK; k += W) {
         uintN idx = (uintN)(first + k) + LANE_IDS;
         rand4 u = RNG(idx, point, stream, seed_lo, seed_hi);
-        realN v = sel((realN)0, albedo_estimate(&p, wo, u), TO_MASK(idx < (uintN)samples));
-        sum += v;
-        sum2 += v * v;
+        spec e = albedo_estimate(&p, wo, u);
+        maskN m = TO_MASK(idx < (uintN)samples);
+        for (int ch = 0; ch < CHANNELS; ++ch) {
+            realN v = sel((realN)0, e.c[ch], m);
+            sum[ch] += v;
+            sum2[ch] += v * v;
+        }
     }
 #endif
-    out[2 * g] = HSUM(sum);
-    out[2 * g + 1] = HSUM(sum2);
+    for (int ch = 0; ch < CHANNELS; ++ch) {
+        out[2 * (CHANNELS * g + ch)] = HSUM(sum[ch]);
+        out[2 * (CHANNELS * g + ch) + 1] = HSUM(sum2[ch]);
+    }
 }

@@ -2,7 +2,7 @@
  *
  * | parameter | meaning         | range  |
  * |-----------|-----------------|--------|
- * | kd        | diffuse albedo  | [0, 1] |
+ * | kd        | diffuse albedo  | [0, 1], per channel |
  *
  * f = kd / pi; sampled by the cosine-weighted hemisphere, so the weight is kd.
  */
@@ -11,9 +11,13 @@
 
 #define lambert_SAMPLE_DIMS 2
 
-inline realN lambert_eval(const Params *p, vec3 wi, vec3 wo)
+inline spec lambert_eval(const Params *p, vec3 wi, vec3 wo)
 {
-    return sel((realN)0, p->kd * INV_PI_R, (wi.z > 0) & (wo.z > 0));
+    maskN ok = (wi.z > 0) & (wo.z > 0);
+    spec f;
+    for (int c = 0; c < CHANNELS; ++c)
+        f.c[c] = sel((realN)0, p->kd[c] * INV_PI_R, ok);
+    return f;
 }
 
 inline realN lambert_pdf(const Params *p, vec3 wo, vec3 wi)
@@ -26,7 +30,8 @@ inline BSample lambert_sample(const Params *p, vec3 wo, rand4 u)
     BSample s;
     s.wi = square_to_cosine_hemisphere(u.u0, u.u1);
     s.pdf = lambert_pdf(p, wo, s.wi);
-    s.weight = sel((realN)0, p->kd, wo.z > 0);
+    for (int c = 0; c < CHANNELS; ++c)
+        s.weight.c[c] = sel((realN)0, p->kd[c], wo.z > 0);
     return s;
 }
 

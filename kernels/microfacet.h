@@ -1,18 +1,22 @@
 /* Microfacet reflection BRDF (Cook & Torrance 1982; Walter et al. 2007), optional Lambertian term.
  *
- *   f(wi, wo) = F(wi . h) D(h) G(wi, wo, h) / (4 cos_i cos_o)  [+ kd / pi]
+ *   f(wi, wo) = [ks] F(wi . h) D(h) G(wi, wo, h) / (4 cos_i cos_o)  [+ kd / pi]
  *
  * | parameter        | meaning                                   | range        |
  * |------------------|-------------------------------------------|--------------|
  * | alpha            | roughness (isotropic)                     | [1e-4, 10]   |
  * | alpha_x, alpha_y | roughness along x and y (anisotropic)     | [1e-4, 10]   |
- * | f0               | Schlick reflectance at normal incidence   | [0, 1]       |
- * | eta              | relative index (dielectric), or real part | (0, 100]     |
- * | k                | extinction coefficient (conductor)        | [0, 100]     |
- * | kd               | albedo of the Lambertian term             | [0, 1]       |
+ * | gamma / p        | shape of the GTR / SGD / exp-power NDF    | per header   |
+ * | f0 (per channel) | Schlick reflectance at normal incidence   | [0, 1]       |
+ * | eta (per channel)| relative index (dielectric), or real part | (0, 100]     |
+ * | k (per channel)  | extinction coefficient (conductor)        | [0, 100]     |
+ * | ks (per channel) | scale of the specular term                | [0, 1e6]     |
+ * | kd (per channel) | albedo of the Lambertian term             | [0, 1]       |
  *
  * Compile-time configuration; only the chosen terms are compiled:
- *   MF_DIST     ggx | beckmann
+ *   MF_DIST     ggx | beckmann (here) | gtr | sgd | exppow (dist_*.h, included by the host)
+ *   MF_SHAPE    the parameter that fills Microfacet.shape (gamma, p), if the NDF has one
+ *   MF_KS       0 | 1: the specular scale ks
  *   MF_ANISO    0: alpha; 1: alpha_x, alpha_y
  *   MF_MASKING  MASKING_NONE | MASKING_VCAVITY | MASKING_SEPARABLE | MASKING_CORRELATED
  *   MF_FRESNEL  FRESNEL_ONE | FRESNEL_SCHLICK | FRESNEL_DIELECTRIC | FRESNEL_CONDUCTOR
@@ -21,7 +25,8 @@
  *
  * Sampling: h from the distribution of normals or of visible normals, wi = reflect(wo, h),
  * pdf(wi) = pdf(h) / (4 wo . h). With the Lambertian term the cosine lobe is chosen with
- * probability kd / (kd + F(cos_o)) and the density is the mixture of both.
+ * probability sum kd / (sum kd + sum ks F(cos_o)) (sums over channels) and the density is the
+ * mixture of both.
  */
 #ifndef CLBRDF_MICROFACET_H
 #define CLBRDF_MICROFACET_H
@@ -46,24 +51,32 @@
 inline Microfacet mf_distribution(const Params *p)
 {
 #if MF_ANISO
-    Microfacet m = {p->alpha_x, p->alpha_y};
+    Microfacet m = {p->alpha_x, p->alpha_y, (realN)0};
 #else
-    Microfacet m = {p->alpha, p->alpha};
+    Microfacet m = {p->alpha, p->alpha, (realN)0};
+#endif
+#ifdef MF_SHAPE
+    m.shape = p->MF_SHAPE;
 #endif
     return m;
 }
 
-inline realN mf_fresnel(const Params *p, realN c)
+/* ks F(c) of channel ch. */
+inline realN mf_fresnel(const Params *p, realN c, int ch)
 {
 #if MF_FRESNEL == FRESNEL_SCHLICK
-    return fresnel_schlick(p->f0, c);
+    realN F = fresnel_schlick(p->f0[ch], c);
 #elif MF_FRESNEL == FRESNEL_DIELECTRIC
-    return fresnel_dielectric(p->eta, c);
+    realN F = fresnel_dielectric(p->eta[ch], c);
 #elif MF_FRESNEL == FRESNEL_CONDUCTOR
-    return fresnel_conductor(p->eta, p->k, c);
+    realN F = fresnel_conductor(p->eta[ch], p->k[ch], c);
 #else
-    return (realN)1;
+    realN F = (realN)1;
 #endif
+#if MF_KS
+    F *= p->ks[ch];
+#endif
+    return F;
 }
 
 inline realN mf_G1(Microfacet m, vec3 w) { return 1 / (1 + MF(Lambda)(m, w)); }
@@ -89,23 +102,34 @@ inline realN mf_G(Microfacet m, vec3 wi, vec3 wo, vec3 h)
 inline realN mf_diffuse_prob(const Params *p, vec3 wo)
 {
 #if MF_DIFFUSE
-    realN fs = mf_fresnel(p, wo.z);
-    realN s = p->kd + fs;
-    return sel(p->kd / s, (realN)0, s <= 0);
+    realN kd = 0, fs = 0;
+    for (int c = 0; c < CHANNELS; ++c) {
+        kd += p->kd[c];
+        fs += mf_fresnel(p, wo.z, c);
+    }
+    realN s = kd + fs;
+    return sel(kd / s, (realN)0, s <= 0);
 #else
     return (realN)0;
 #endif
 }
 
-inline realN microfacet_eval(const Params *p, vec3 wi, vec3 wo)
+inline spec microfacet_eval(const Params *p, vec3 wi, vec3 wo)
 {
     Microfacet m = mf_distribution(p);
     vec3 h = normalize3(add3(wi, wo));
-    realN f = mf_fresnel(p, dot3(wi, h)) * MF(D)(m, h) * mf_G(m, wi, wo, h) / (4 * wi.z * wo.z);
+    realN lobe = MF(D)(m, h) * mf_G(m, wi, wo, h) / (4 * wi.z * wo.z);
+    realN c_d = dot3(wi, h);
+    maskN ok = (wi.z > 0) & (wo.z > 0);
+    spec f;
+    for (int c = 0; c < CHANNELS; ++c) {
+        realN v = mf_fresnel(p, c_d, c) * lobe;
 #if MF_DIFFUSE
-    f += p->kd * INV_PI_R;
+        v += p->kd[c] * INV_PI_R;
 #endif
-    return sel((realN)0, f, (wi.z > 0) & (wo.z > 0));
+        f.c[c] = sel((realN)0, v, ok);
+    }
+    return f;
 }
 
 /* Density of the specular lobe's sampler, per unit solid angle of wi. */
@@ -147,19 +171,21 @@ inline BSample microfacet_sample(const Params *p, vec3 wo, rand4 u)
     s.wi = select3(s.wi, square_to_cosine_hemisphere(u.u0, u.u1), u.u2 < pd);
     s.pdf = microfacet_pdf(p, wo, s.wi);
     ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
-    s.weight = microfacet_eval(p, s.wi, wo) * s.wi.z / s.pdf;
+    s.weight = spec_scale(microfacet_eval(p, s.wi, wo), s.wi.z / s.pdf);
 #else
     /* f cos_i / pdf with D cancelled: vndf F G / G1(wo); ndf F G (wo.h) / (cos_o cos_h) */
-    realN F = mf_fresnel(p, dot3(wo, h));
     realN G = mf_G(m, s.wi, wo, h);
     s.pdf = mf_lobe_pdf(m, wo, h);
 #if MF_SAMPLER == SAMPLER_VNDF
-    s.weight = F * G * (1 + MF(Lambda)(m, wo));
+    realN g = G * (1 + MF(Lambda)(m, wo));
 #else
-    s.weight = F * G * dot3(wo, h) / (wo.z * h.z);
+    realN g = G * dot3(wo, h) / (wo.z * h.z);
 #endif
+    realN c_d = dot3(wo, h);
+    for (int c = 0; c < CHANNELS; ++c)
+        s.weight.c[c] = mf_fresnel(p, c_d, c) * g;
 #endif
-    s.weight = sel((realN)0, s.weight, ok);
+    s.weight = spec_sel(spec_splat((realN)0), s.weight, ok);
     s.pdf = sel((realN)0, s.pdf, ok);
     return s;
 }

@@ -10,7 +10,9 @@
 #ifndef CLBRDF_MICROFACET_DISTRIBUTIONS_H
 #define CLBRDF_MICROFACET_DISTRIBUTIONS_H
 
-typedef struct { realN ax, ay; } Microfacet;
+/* ax, ay: roughness along x and y; shape: a second parameter of the NDFs that have one
+ * (GTR gamma, SGD p, exponential-power p). */
+typedef struct { realN ax, ay, shape; } Microfacet;
 
 /* Squared roughness along the azimuth of w, times tan^2 theta_w: (wx^2 ax^2 + wy^2 ay^2) / wz^2. */
 inline realN projected_roughness2(Microfacet m, vec3 w)

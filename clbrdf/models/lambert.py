@@ -7,5 +7,7 @@ SPEC = ModelSpec(
     reference="Lambert 1760; f = kd / pi",
     header="lambert.h",
     prefix="lambert",
-    params=(Param("kd", "diffuse albedo", 0.0, 1.0, 1.0),),
+    params=(Param("kd", "diffuse albedo", 0.0, 1.0, 1.0, spectral=True),),
 )
+
+SPECS = (SPEC,)

@@ -1,10 +1,15 @@
 """Microfacet reflection with a Beckmann or GGX distribution. Kernel: kernels/microfacet.h.
 
-f = F(wi.h) D(h) G(wi, wo, h) / (4 cos_i cos_o) + kd / pi  (Walter et al. 2007 eq 20;
+f = ks F(wi.h) D(h) G(wi, wo, h) / (4 cos_i cos_o) + kd / pi  (Walter et al. 2007 eq 20;
 MODELS.md section 1). Only the terms a configuration uses are compiled: the Fresnel term follows
 the ``fresnel`` option (or, when it is not given, the Fresnel parameters given: f0 -> schlick,
-eta -> dielectric, eta and k -> conductor), the Lambertian term is compiled when kd is given,
-and alpha_x/alpha_y select the anisotropic form.
+eta -> dielectric, eta and k -> conductor), the Lambertian term is compiled when kd is given, the
+scale ks when ks is given, and alpha_x/alpha_y select the anisotropic form. f0, eta, k, ks and kd
+are per channel in an RGB model (channels=3).
+
+Other distributions plug in with ``spec(name, ..., header="dist_<name>.h", shape=Param(...))``:
+the header provides <name>_D, <name>_Lambda, <name>_sample_ndf (and <name>_sample_vndf) on a
+``Microfacet`` whose ``shape`` field holds the extra parameter.
 """
 from ..spec import ModelSpec, Option, Param, ParameterError
 
@@ -14,11 +19,12 @@ PARAMS = (
     Param("alpha", "roughness (isotropic)", *ROUGH, 0.5),
     Param("alpha_x", "roughness along the tangent x (anisotropic)", *ROUGH, 0.5),
     Param("alpha_y", "roughness along the bitangent y (anisotropic)", *ROUGH, 0.5),
-    Param("f0", "Schlick Fresnel reflectance at normal incidence", 0.0, 1.0, 0.04),
+    Param("f0", "Schlick Fresnel reflectance at normal incidence", 0.0, 1.0, 0.04, spectral=True),
     Param("eta", "relative index of refraction (dielectric) or its real part (conductor)",
-          0.0, 100.0, 1.5, lo_open=True),
-    Param("k", "extinction coefficient (conductor)", 0.0, 100.0, 3.0),
-    Param("kd", "albedo of the added Lambertian term", 0.0, 1.0, 0.0),
+          0.0, 100.0, 1.5, lo_open=True, spectral=True),
+    Param("k", "extinction coefficient (conductor)", 0.0, 100.0, 3.0, spectral=True),
+    Param("ks", "scale of the specular term", 0.0, 1e6, 1.0, spectral=True),
+    Param("kd", "albedo of the added Lambertian term", 0.0, 1.0, 0.0, spectral=True),
 )
 
 OPTIONS = (
@@ -32,7 +38,8 @@ OPTIONS = (
 FRESNEL_PARAMS = {"one": (), "schlick": ("f0",), "dielectric": ("eta",), "conductor": ("eta", "k")}
 
 
-def configure(dist: str):
+def configure(dist: str, shape: str | None = None, header: str | None = None,
+              samplers=("vndf", "ndf")):
     def fn(opts: dict, given: set):
         if {"alpha_x", "alpha_y"} & given:
             if "alpha" in given:
@@ -46,8 +53,12 @@ def configure(dist: str):
             fresnel = ("conductor" if {"eta", "k"} <= given else "dielectric" if "eta" in given
                        else "schlick" if "f0" in given else "one")
         masking = opts.get("masking", "correlated")
-        sampler = opts.get("sampler", "vndf")
+        sampler = opts.get("sampler", samplers[0])
+        if sampler not in samplers:
+            raise ParameterError(f"option sampler={sampler!r} is not available for {dist}: "
+                                 f"choose one of {', '.join(samplers)}")
         diffuse = "kd" in given
+        ks = "ks" in given
         defines = (
             ("MF_DIST", dist),
             ("MF_ANISO", str(int(len(rough) == 2))),
@@ -55,19 +66,31 @@ def configure(dist: str):
             ("MF_FRESNEL", f"FRESNEL_{fresnel.upper()}"),
             ("MF_DIFFUSE", str(int(diffuse))),
             ("MF_SAMPLER", f"SAMPLER_{sampler.upper()}"),
-        )
-        used = rough + FRESNEL_PARAMS[fresnel] + (("kd",) if diffuse else ())
-        return defines, used, {"masking": masking, "fresnel": fresnel, "sampler": sampler}
+            ("MF_KS", str(int(ks))),
+        ) + ((("MF_SHAPE", shape),) if shape else ())
+        used = (rough + ((shape,) if shape else ()) + FRESNEL_PARAMS[fresnel]
+                + (("ks",) if ks else ()) + (("kd",) if diffuse else ()))
+        return (defines, used, {"masking": masking, "fresnel": fresnel, "sampler": sampler},
+                (header,) if header else ())
     return fn
 
 
-def spec(name: str, title: str, reference: str) -> ModelSpec:
+def spec(name: str, title: str, reference: str, *, header: str | None = None,
+         shape: Param | None = None, samplers=("vndf", "ndf"), aniso: bool = True) -> ModelSpec:
+    """A microfacet model with distribution ``name`` (see the module docstring)."""
+    params = PARAMS + ((shape,) if shape else ())
+    if not aniso:
+        params = tuple(p for p in params if p.name not in ("alpha_x", "alpha_y"))
+    options = tuple(Option(o.name, o.meaning, samplers, samplers[0]) if o.name == "sampler" else o
+                    for o in OPTIONS)
     return ModelSpec(name=name, title=title, reference=reference, header="microfacet.h",
-                     prefix="microfacet", params=PARAMS, options=OPTIONS,
-                     configure_fn=configure(name))
+                     prefix="microfacet", params=params, options=options,
+                     configure_fn=configure(name, shape.name if shape else None, header, samplers))
 
 
 GGX = spec("ggx", "Microfacet, GGX (Trowbridge-Reitz) distribution",
            "Walter et al. 2007 eq 33 (D), Smith Lambda; Heitz 2018 / Dupuy & Benyoub 2023 (VNDF)")
 BECKMANN = spec("beckmann", "Microfacet, Beckmann distribution",
                 "Walter et al. 2007 eq 25 (D), eq 27 (Lambda); Heitz & d'Eon 2014 (VNDF)")
+
+SPECS = (GGX, BECKMANN)
