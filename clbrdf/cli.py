@@ -151,7 +151,8 @@ def _usable(device) -> None:
 
 def _model(name, args, params):
     from .core import Model
-    m = Model(name, precision=getattr(args, "precision", "single"), device=args.device, **params)
+    m = Model(name, precision=getattr(args, "precision", "single"), device=args.device,
+              preset=getattr(args, "preset", None), **params)
     _usable(m.device)
     return m
 
@@ -204,8 +205,39 @@ def cmd_devices(args) -> int:
     return 0
 
 
+def cmd_presets(args) -> int:
+    from . import presets
+    summary = presets.summary()
+    if args.model:
+        _spec(args.model)
+        summary = {args.model: summary.get(args.model, {"sources": [], "materials": []})}
+    if args.json:
+        print(json.dumps(summary, indent=2))
+        return 0
+    for i, (model, d) in enumerate(summary.items()):
+        if i:
+            print()
+        if not d["sources"]:
+            print(f"{model}: no presets")
+            continue
+        print(f"{model}: {len(d['materials'])} materials (--preset MATERIAL[:SOURCE])")
+        for j, src in enumerate(d["sources"]):
+            print(f"  source {src['label']}{' (default)' if j == 0 else ''}: {src['file']}, "
+                  f"{src['attribution']}")
+        names, line = d["materials"], "   "
+        for n in names:
+            if len(line) + len(n) + 1 > 100:
+                print(line)
+                line = "   "
+            line += " " + n
+        print(line)
+    return 0
+
+
 def cmd_models(args) -> int:
     from .models import MODELS
+    if args.presets:
+        return cmd_presets(args)
     specs = [_spec(args.model)] if args.model else list(MODELS.values())
     if args.json:
         print(json.dumps({s.name: {
@@ -340,13 +372,16 @@ def cmd_table(args) -> int:
     t0 = time.perf_counter()
     table = albedo_table(spec.name, axes, samples=args.samples, estimator=args.estimator,
                          seed=args.seed, qmc=args.qmc, precision=args.precision,
-                         device=args.device, progress=True, **params)
+                         device=args.device, progress=True, preset=args.preset, **params)
     seconds = time.perf_counter() - t0
     meta = json.loads(table["metadata"])
-    # every fixed parameter, defaults included, and the options given
-    cfg, values = spec.configure(**params, **{a: v[0] for a, v in axes.items() if a != "mu"})
-    meta["fixed"] = {**{k: values[k].tolist() for k in cfg.param_names if k not in axes},
-                     **{k: v for k, v in params.items() if isinstance(v, str)}}
+    # every fixed parameter, defaults included, and the options
+    first = _model(spec.name, args, {**params, **{a: v[0] for a, v in axes.items() if a != "mu"}})
+    meta["fixed"] = {**{k: v.tolist() for k, v in first.params.items() if k not in axes},
+                     **first.options}
+    if args.preset:
+        meta["preset"] = {"material": first.preset.material, "source": first.preset.source,
+                          "attribution": first.preset.attribution}
     meta["spacing"] = spacing
     meta["command"] = " ".join(["clbrdf"] + [_quote(a) for a in args.argv])
     table["metadata"] = json.dumps(meta)
@@ -381,6 +416,9 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--param", "-p", action="append", default=[], metavar="NAME=VALUE",
                        help="a parameter (alpha=0.3) or option (masking=vcavity); repeat for "
                             "several; see 'clbrdf models'")
+        p.add_argument("--preset", metavar="MATERIAL[:SOURCE]",
+                       help="a published fit of MODEL to a MERL material (RGB), e.g. alum-bronze; "
+                            "--param values override it; see 'clbrdf models --presets'")
 
     def sampling_args(p):
         p.add_argument("--estimator", choices=ESTIMATORS, default="brdf",
@@ -404,6 +442,8 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Each model with its parameters (meaning, range, default) "
                                    "and options (choices, default).")
     p.add_argument("model", metavar="MODEL", nargs="?", help="only this model")
+    p.add_argument("--presets", action="store_true",
+                   help="list the material presets (published fits) of each model instead")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=cmd_models)
 

@@ -47,9 +47,15 @@ class Model:
     """
 
     def __init__(self, name: str, *, precision: str = "single", device=None, width: int | None = None,
-                 channels: int = 1, **params):
+                 channels: int | None = None, preset: str | None = None, **params):
         self.spec = get_spec(name)
-        self.config, self.params = self.spec.configure(channels=channels, **params)
+        self.preset = None
+        if preset is not None:          # a published fit (clbrdf.presets); params override it
+            from . import presets
+            self.preset = presets.get(self.spec.name, preset)
+            params = {**self.preset.options, **self.preset.params, **params}
+            channels = 3 if channels is None else channels
+        self.config, self.params = self.spec.configure(channels=channels or 1, **params)
         self.precision = _check_choice("precision", precision, PRECISIONS)
         self.device: Device = get_device(device)
         self.width = width or self.device.default_width(precision)
@@ -70,8 +76,9 @@ class Model:
         return dict(self.config.options)
 
     def describe(self) -> dict:
-        """Model name, options and parameters (scalars as floats, arrays as lists)."""
-        return {"model": self.name, **self.options,
+        """Model name, preset, options and parameters (scalars as floats, arrays as lists)."""
+        pre = {"preset": f"{self.preset.material} ({self.preset.source})"} if self.preset else {}
+        return {"model": self.name, **pre, **self.options,
                 **{k: (v.item() if v.ndim == 0 else v.tolist()) for k, v in self.params.items()}}
 
     def __repr__(self):
@@ -372,5 +379,8 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
             "seed": seed, "precision": precision, "device": m.device.info.name,
             "version": __version__, "seconds": time.perf_counter() - t0,
             "E_avg": f"2 int_0^1 E(mu) mu dmu, Gauss-Legendre with {avg_nodes} nodes in mu"}
+    if m.preset is not None:
+        meta["preset"] = {"material": m.preset.material, "source": m.preset.source,
+                          "attribution": m.preset.attribution}
     out["metadata"] = json.dumps(meta)
     return out

@@ -94,3 +94,18 @@ BECKMANN = spec("beckmann", "Microfacet, Beckmann distribution",
                 "Walter et al. 2007 eq 25 (D), eq 27 (Lambda); Heitz & d'Eon 2014 (VNDF)")
 
 SPECS = (GGX, BECKMANN)
+
+
+def low_cook_torrance(fit: dict):
+    """Löw et al. 2012's Cook-Torrance fits (bbm ``LowCookTorrance``: bsdfmodel/cooktorrance.h):
+    f = albedo F(eta) D_ct G_vgroove / (pi cos_i cos_o) with the unnormalised Beckmann
+    D_ct = exp(-tan^2 / m^2) / (m^2 cos^4) = pi D, so f = 4 albedo F D G / (4 cos_i cos_o):
+    ks = 4 albedo; plus the Lambertian albedo / pi."""
+    ct = fit["LowCookTorrance"]
+    return ({"fresnel": "dielectric", "masking": "vcavity"},
+            {"alpha": ct["roughness"], "eta": ct["eta"], "ks": [4 * a for a in ct["albedo"]],
+             "kd": fit["Lambertian"]["albedo"]})
+
+
+PRESETS = {"low_cooktorrance_E2.fit": ("beckmann", low_cook_torrance),
+           "low_cooktorrance_E1.fit": ("beckmann", low_cook_torrance)}
