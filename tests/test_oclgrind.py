@@ -20,8 +20,10 @@ SCRIPT = textwrap.dedent("""
     name, width, precision = sys.argv[1], int(sys.argv[2]), sys.argv[3]
     kw = dict(lambert=dict(kd=0.5),
               ggx=dict(alpha_x=0.3, alpha_y=0.1, kd=0.2, fresnel='conductor'),
+              ggx_rgb=dict(channels=3, alpha=0.3, kd=[0.1, 0.2, 0.3], f0=[0.04, 0.5, 0.9],
+                           ks=[1.0, 0.5, 2.0]),
               beckmann=dict(alpha=0.2, fresnel='dielectric', sampler='vndf', masking='separable'))[name]
-    m = clbrdf.Model(name, width=width, precision=precision, device='oclgrind', **kw)
+    m = clbrdf.Model(name.replace('_rgb', ''), width=width, precision=precision, device='oclgrind', **kw)
     rng = np.random.default_rng(0)
     v = rng.normal(size=(7, 3)); v[:, 2] = abs(v[:, 2]); v /= np.linalg.norm(v, axis=1, keepdims=True)
     m.eval(v, v[::-1]); m.pdf(v, v[::-1]); m.sample(v, seed=1)
@@ -36,7 +38,8 @@ ERRORS = ("Invalid read", "Invalid write", "Uninitialized", "data race", "FATAL"
 
 @pytest.mark.parametrize("name,width,precision", [
     ("ggx", 1, "single"), ("ggx", 4, "single"), ("ggx", 2, "double"),
-    ("beckmann", 4, "single"), ("lambert", 1, "double")])
+    ("beckmann", 4, "single"), ("lambert", 1, "double"), ("ggx_rgb", 4, "single"),
+    ("ggx_rgb", 1, "double")])
 def test_kernels_clean_under_oclgrind(tmp_path, name, width, precision):
     script = tmp_path / "run.py"
     script.write_text(SCRIPT)
