@@ -125,6 +125,31 @@ inline realN sincos_r(realN x, realN *c)
 }
 inline realN safe_sqrt(realN x) { return sqrt(fmax(x, (realN)0)); }
 
+/* sin(2 pi u), and cos(2 pi u) in *c, for |u| < 2^22 (samplers' azimuths, u in [0, 1)).
+ * The argument is reduced exactly in u (r = u - q/4, q = rint(4u)), so 2 pi r is in
+ * [-pi/4, pi/4], where Taylor polynomials of degree 9 (sin) and 10 (cos) err by < 4e-9 in
+ * single precision (series in r with the coefficients (2 pi)^k / k!); the quadrant q rotates
+ * (s, c). Double precision calls sincos. */
+inline realN sincos_2pi(realN u, realN *c)
+{
+#if CLBRDF_DOUBLE
+    return sincos_r(2 * PI_R * u, c);
+#else
+    realN q = rint(4 * u);
+    realN r = u - (realN)0.25 * q;                 /* exact */
+    realN a = (realN)6.28318530717958647692 * r, a2 = a * a;
+    realN sn = a * (1 + a2 * ((realN)-1.66666666666666667e-1 + a2 * ((realN)8.33333333333333333e-3
+              + a2 * ((realN)-1.98412698412698413e-4 + a2 * (realN)2.75573192239858907e-6))));
+    realN cs = 1 + a2 * ((realN)-0.5 + a2 * ((realN)4.16666666666666667e-2 + a2 * ((realN)-1.38888888888888889e-3
+              + a2 * ((realN)2.48015873015873016e-5 + a2 * (realN)-2.75573192239858907e-7))));
+    realN k = q - 4 * floor((realN)0.25 * q);      /* quadrant 0..3 */
+    maskN odd = (k == 1) | (k == 3), neg_s = (k >= 2), neg_c = (k == 1) | (k == 2);
+    realN s2 = sel(sn, cs, odd), c2 = sel(cs, sn, odd);
+    *c = sel(c2, -c2, neg_c);
+    return sel(s2, -s2, neg_s);
+#endif
+}
+
 /* A spectrum: CHANNELS values (1, or 3 for RGB; the host defines CHANNELS). Models loop over
  * channels with `for (int c = 0; c < CHANNELS; ++c)`, which the compiler unrolls. */
 #ifndef CHANNELS

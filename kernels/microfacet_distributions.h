@@ -43,7 +43,7 @@ inline realN ggx_Lambda(Microfacet m, vec3 w)
 inline vec3 ggx_sample_ndf(Microfacet m, realN u0, realN u1)
 {
     realN r = sqrt(u0 / (1 - u0));
-    realN c, s = sincos_r(2 * PI_R * u1, &c);
+    realN c, s = sincos_2pi(u1, &c);
     return slope_to_normal(m.ax * r * c, m.ay * r * s);
 }
 
@@ -54,7 +54,7 @@ inline vec3 ggx_sample_vndf(Microfacet m, vec3 w, realN u0, realN u1)
     vec3 ws = normalize3(v3(w.x * m.ax, w.y * m.ay, w.z));
     realN z = (1 - u1) * (1 + ws.z) - ws.z;
     realN sin_t = safe_sqrt(1 - z * z);
-    realN c, s = sincos_r(2 * PI_R * u0, &c);
+    realN c, s = sincos_2pi(u0, &c);
     vec3 hs = v3(sin_t * c + ws.x, sin_t * s + ws.y, z + ws.z);
     return normalize3(v3(hs.x * m.ax, hs.y * m.ay, fmax(hs.z, (realN)0)));
 }
@@ -83,7 +83,7 @@ inline realN beckmann_Lambda(Microfacet m, vec3 w)
 inline vec3 beckmann_sample_ndf(Microfacet m, realN u0, realN u1)
 {
     realN r = sqrt(-log1p(-u0));
-    realN c, s = sincos_r(2 * PI_R * u1, &c);
+    realN c, s = sincos_2pi(u1, &c);
     return slope_to_normal(m.ax * r * c, m.ay * r * s);
 }
 

@@ -4,7 +4,7 @@
 
 inline vec3 polar_dir(realN cos_t, realN sin_t, realN u_phi)
 {
-    realN c, s = sincos_r(2 * PI_R * u_phi, &c);
+    realN c, s = sincos_2pi(u_phi, &c);
     return v3(sin_t * c, sin_t * s, cos_t);
 }
 
