@@ -21,14 +21,47 @@ typedef struct { realN u0, u1, u2, u3; } rand4;
 
 typedef struct { uintN c0, c1, c2, c3; } uint4N;
 
+/* hi and lo words of the 32 x 32 -> 64-bit products x * m, lane by lane. With vectors the high
+ * words of even and odd lanes are formed in place as 64-bit lanes (one vpmuludq each on x86)
+ * and blended back, without widening and narrowing the vector; the low words are the 32-bit
+ * products. */
+#if W == 2
+typedef ulong ulongH;
+#define as_ulongH as_ulong
+#elif W == 4
+typedef ulong2 ulongH;
+#define as_ulongH as_ulong2
+#elif W == 8
+typedef ulong4 ulongH;
+#define as_ulongH as_ulong4
+#elif W == 16
+typedef ulong8 ulongH;
+#define as_ulongH as_ulong8
+#endif
+#define as_uintN CAT(as_uint, W)
+
+inline uintN mulhilo32(uintN x, uint m, uintN *hi)
+{
+#if W == 1
+    ulong p = (ulong)x * m;
+    *hi = (uint)(p >> 32);
+    return (uint)p;
+#else
+    ulongH x64 = as_ulongH(x);
+    ulongH e = (x64 & (ulongH)0xFFFFFFFFul) * (ulongH)m;     /* lanes 0, 2, 4, ... */
+    ulongH o = (x64 >> 32) * (ulongH)m;                        /* lanes 1, 3, 5, ... */
+    *hi = as_uintN((e >> 32) | (o & (ulongH)0xFFFFFFFF00000000ul));
+    return x * (uintN)m;                                       /* low words: 32-bit products */
+#endif
+}
+
 inline uint4N philox4x32_10(uint4N c, uint k0, uint k1)
 {
     for (int r = 0; r < 10; ++r) {
-        /* one 32x32 -> 64-bit product gives both halves (a single vpmuludq per 8 lanes) */
-        ulongN p0 = convert_ulongN(c.c0) * (ulongN)PHILOX_M0;
-        ulongN p1 = convert_ulongN(c.c2) * (ulongN)PHILOX_M1;
-        uint4N n = {convert_uintN(p1 >> 32) ^ c.c1 ^ k0, convert_uintN(p1),
-                    convert_uintN(p0 >> 32) ^ c.c3 ^ k1, convert_uintN(p0)};
+        uintN hi0, hi1;
+        uintN lo0 = mulhilo32(c.c0, PHILOX_M0, &hi0);
+        uintN lo1 = mulhilo32(c.c2, PHILOX_M1, &hi1);
+        uint4N n = {hi1 ^ c.c1 ^ k0, lo1, hi0 ^ c.c3 ^ k1, lo0};
         c = n;
         k0 += PHILOX_W0;
         k1 += PHILOX_W1;
