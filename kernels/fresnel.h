@@ -10,14 +10,17 @@ inline realN fresnel_schlick(realN f0, realN c)
 }
 
 /* Exact unpolarised dielectric (Cook & Torrance 1982, eq 8 of their appendix), relative index
- * eta of the inside to the outside; total internal reflection (g^2 < 0) gives 1. */
+ * eta of the inside to the outside; total internal reflection (g^2 < 0) gives 1.
+ * g^2 = (eta - 1)(eta + 1) + c^2 keeps g = c (F = 0) at eta = 1 where eta^2 - 1 + c^2 loses c^2
+ * in single precision; the one 0/0 point, eta = 1 and c = 0, takes its limit along c, 0. */
 inline realN fresnel_dielectric(realN eta, realN c)
 {
-    realN g2 = eta * eta + c * c - 1;
+    realN g2 = (eta - 1) * (eta + 1) + c * c;
     realN g = safe_sqrt(g2);
     realN a = (g - c) / (g + c);
     realN b = (c * (g + c) - 1) / (c * (g - c) + 1);
-    return sel((realN)0.5 * a * a * (1 + b * b), (realN)1, g2 < 0);
+    realN F = sel((realN)0.5 * a * a * (1 + b * b), (realN)0, g + c == 0);
+    return sel(F, (realN)1, g2 < 0);
 }
 
 /* Unpolarised conductor with complex index eta + i k (Born & Wolf, real arithmetic form):

@@ -569,3 +569,23 @@ def test_sampled_azimuth_sin_cos_accurate(precision, width, model_cache):
     tol = 2.5e-7 if precision == "single" else 1e-15
     np.testing.assert_allclose(wi[:, 0], r * np.cos(2 * np.pi * u1), rtol=0, atol=tol)
     np.testing.assert_allclose(wi[:, 1], r * np.sin(2 * np.pi * u1), rtol=0, atol=tol)
+
+
+@pytest.mark.parametrize("precision", ["single", "double"])
+def test_dielectric_fresnel_index_matched(precision, model_cache):
+    """eta = 1 (no interface) reflects nothing at every angle, grazing included (F read off the
+    BRDF at h = n as in test_conductor_fresnel_nonnegative); near eta = 1 F matches the
+    reference within 1e-3 relative + 1e-7. Single precision used to give F = 1 for c < 3e-4
+    (eta^2 - 1 + c^2 lost c^2) and NaN at c = 0 (0/0)."""
+    c = np.concatenate([[1e-6, 1e-5, 1e-4, 3e-4, 1e-3], np.linspace(0.01, 1, 50)])
+    s = np.sqrt(1 - c * c)
+    wi, wo = np.stack([s, 0 * s, c], -1), np.stack([-s, 0 * s, c], -1)
+    eta = np.array([1.0, 1.001, 0.999, 1.5])[:, None]
+    m = model_cache("ggx", precision=precision, alpha=0.5, masking="none", fresnel="dielectric",
+                    eta=eta)
+    F = m.eval(wi, wo).astype(float) * 4 * c * c * np.pi * 0.25
+    F_ref = R.fresnel("dielectric", c, eta=eta)
+    assert np.all(np.isfinite(F))
+    np.testing.assert_array_equal(F[0], 0.0)
+    rtol = 1e-3 if precision == "single" else 1e-9
+    np.testing.assert_allclose(F[1:], F_ref[1:], rtol=rtol, atol=1e-7)
