@@ -128,7 +128,7 @@ class Model:
         host_out = [np.empty((k, n_pad), dtype=self.dtype) for k in outputs]
         out_bufs = [cl.Buffer(ctx, mf.WRITE_ONLY, h.nbytes) for h in host_out]
         prog = self.program()
-        _kernel(prog, kernel)(q, (n_pad // w,), None, *bufs, np.uint64(n_pad), *out_bufs)
+        _kernel(prog, kernel)(q, *_ndrange(n_pad // w, self.device), *bufs, np.uint64(n_pad), *out_bufs)
         for h, b in zip(host_out, out_bufs):
             cl.enqueue_copy(q, h, b)
         q.finish()
@@ -189,7 +189,7 @@ class Model:
         prog = self.program(rng="sobol" if qmc else "philox")
         buf = cl.Buffer(self.device.context, cl.mem_flags.WRITE_ONLY, 4 * n_pad * np.dtype(self.dtype).itemsize)
         lo, hi = _seed_words(seed)
-        _kernel(prog, "random_batch")(self.device.queue, (n_pad // w,), None, np.uint64(n_pad), np.uint32(point),
+        _kernel(prog, "random_batch")(self.device.queue, *_ndrange(n_pad // w, self.device), np.uint64(n_pad), np.uint32(point),
                           np.uint32(stream), lo, hi, buf)
         out = np.empty((4, n_pad), dtype=self.dtype)
         cl.enqueue_copy(self.device.queue, out, buf)
@@ -280,7 +280,7 @@ def albedo(m: Model, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 <
         bw = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=WO)
         out = np.empty(k * blocks * nch * 2, dtype=m.dtype)
         bo = cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes)
-        kernel(q, (k * blocks,), None, bp, bw, np.uint64(k), np.uint64(start),
+        kernel(q, *_ndrange(k * blocks, m.device), bp, bw, np.uint64(k), np.uint64(start),
                            np.uint32(blocks), np.uint32(per_stream), lo, hi, np.uint32(bps), bo)
         cl.enqueue_copy(q, out, bo)
         q.finish()
@@ -305,6 +305,22 @@ def albedo(m: Model, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 <
 
 
 _KERNELS: dict = {}
+
+LOCAL_SIZE = 64     # work-items per work-group, at most
+
+
+def _ndrange(items: int, device: Device):
+    """(global size, local size) for ``items`` work-items; the kernels ignore the padding items.
+
+    The local size is explicit: left to itself PoCL makes work-groups of up to 4096 items whose
+    contexts live on an 8 MB thread stack, which overflows for models with many parameters
+    (an RGB Holzschuch-Pacanowski launch crashed). A power of two up to LOCAL_SIZE, smaller for
+    small launches so that every compute unit gets work groups."""
+    local = 1
+    while local < LOCAL_SIZE and local * 2 * 4 * device.info.compute_units <= items:
+        local *= 2
+    return (-(-items // local) * local,), (local,)
+
 
 
 def _kernel(prog, name: str):
