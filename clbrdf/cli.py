@@ -12,6 +12,7 @@ import math
 import os
 import re
 import sys
+import textwrap
 import time
 import warnings
 from pathlib import Path
@@ -247,7 +248,8 @@ def cmd_models(args) -> int:
                                 "per_channel": p.spectral}
                        for p in s.params},
             "options": {o.name: {"meaning": o.meaning, "choices": list(o.choices),
-                                 "default": o.default} for o in s.options}}
+                                 "default": o.default} for o in s.options},
+            "notes": s.notes}
             for s in specs}, indent=2))
         return 0
     for i, s in enumerate(specs):
@@ -269,10 +271,8 @@ def cmd_models(args) -> int:
             for o in s.options:
                 print(f"    {o.name.ljust(wo)}  {'|'.join(o.choices).ljust(wc)}  "
                       f"default {o.default.ljust(wd)}  {o.meaning}")
-        if s.configure_fn is not None and any(p.name == "f0" for p in s.params):
-            print("  fresnel defaults to the Fresnel parameters given: f0 -> schlick, eta -> "
-                  "dielectric, eta and k -> conductor, none -> one; kd adds a Lambertian term; "
-                  "alpha_x and alpha_y (instead of alpha) make it anisotropic")
+        if s.notes:
+            print(textwrap.fill(s.notes, 100, initial_indent="  ", subsequent_indent="  "))
     return 0
 
 

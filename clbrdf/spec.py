@@ -86,6 +86,7 @@ class ModelSpec:
     # (options, names of parameters given) -> (defines, parameter names used, options resolved)
     configure_fn: Callable | None = None
     aliases: dict[str, str] = field(default_factory=dict)
+    notes: str = ""                  # how options follow from the parameters given, etc.
 
     def param(self, name: str) -> Param:
         for p in self.params:

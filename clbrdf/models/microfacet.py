@@ -83,9 +83,14 @@ def spec(name: str, title: str, reference: str, *, header: str | None = None,
         params = tuple(p for p in params if p.name not in ("alpha_x", "alpha_y"))
     options = tuple(Option(o.name, o.meaning, samplers, samplers[0]) if o.name == "sampler" else o
                     for o in OPTIONS)
+    notes = ("fresnel defaults to the Fresnel parameters given: f0 -> schlick, eta -> dielectric, "
+             "eta and k -> conductor, none -> one; ks scales the specular term; kd adds a "
+             "Lambertian term" + ("; alpha_x and alpha_y (instead of alpha) make it anisotropic"
+                                  if aniso else ""))
     return ModelSpec(name=name, title=title, reference=reference, header="microfacet.h",
                      prefix="microfacet", params=params, options=options,
-                     configure_fn=configure(name, shape.name if shape else None, header, samplers))
+                     configure_fn=configure(name, shape.name if shape else None, header, samplers),
+                     notes=notes)
 
 
 GGX = spec("ggx", "Microfacet, GGX (Trowbridge-Reitz) distribution",
