@@ -78,9 +78,11 @@ inline realN exppow_log1p_lambda(realN p, realN lv)
     realN fp = fmin(floor(tp), (realN)(EXPPOW_TABLE_NP - 2));
     realN fv = fmin(floor(tv), (realN)(EXPPOW_TABLE_NV - 2));
     /* ghost row and column: table index (i + 1, j + 1) holds grid point (i, j); the integer
-     * clamp keeps every read inside the table whatever the input */
-    exppow_int row = clamp(EXPPOW_TO_INT(fp), 0, EXPPOW_TABLE_NP - 2) * (EXPPOW_TABLE_NV + 2)
-                     + clamp(EXPPOW_TO_INT(fv), 0, EXPPOW_TABLE_NV - 2);
+     * clamp keeps every read inside the table whatever the input (vector bounds: oclgrind
+     * miscomputes clamp(intN, int, int)) */
+    exppow_int row = clamp(EXPPOW_TO_INT(fp), (exppow_int)0, (exppow_int)(EXPPOW_TABLE_NP - 2))
+                     * (EXPPOW_TABLE_NV + 2)
+                     + clamp(EXPPOW_TO_INT(fv), (exppow_int)0, (exppow_int)(EXPPOW_TABLE_NV - 2));
     tv -= fv;
     realN r0 = exppow_row(row, tv), r1 = exppow_row(row + (EXPPOW_TABLE_NV + 2), tv);
     realN r2 = exppow_row(row + 2 * (EXPPOW_TABLE_NV + 2), tv);

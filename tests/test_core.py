@@ -113,6 +113,7 @@ def test_single_matches_double_for_albedo():
     assert np.all(np.abs(s.albedo - d.albedo) < 0.01 * s.stderr)
 
 
+@pytest.mark.slow   # ~70 s; test_kernels.py::test_no_nan_or_inf_at_extremes covers every config in the default run
 @pytest.mark.parametrize("precision", ["single", "double"])
 @pytest.mark.parametrize("name", ["ggx", "beckmann"])
 def test_no_nan_or_inf_at_extremes(name, precision):

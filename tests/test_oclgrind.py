@@ -22,7 +22,20 @@ SCRIPT = textwrap.dedent("""
               ggx=dict(alpha_x=0.3, alpha_y=0.1, kd=0.2, fresnel='conductor'),
               ggx_rgb=dict(channels=3, alpha=0.3, kd=[0.1, 0.2, 0.3], f0=[0.04, 0.5, 0.9],
                            ks=[1.0, 0.5, 2.0]),
-              beckmann=dict(alpha=0.2, fresnel='dielectric', sampler='vndf', masking='separable'))[name]
+              beckmann=dict(alpha=0.2, fresnel='dielectric', sampler='vndf', masking='separable'),
+              schlick_rgb=dict(channels=3, material='double', spectral='fresnel', directional='eq18',
+                               c=[0.04, 0.3, 0.9], r=0.1, p=0.3, psi=0.5, c2=[0.8, 0.4, 0.1],
+                               r2=0.7, p2=0.5, psi2=1.0),
+              low_smooth_rgb=dict(preset='alum-bronze', lobes='two', a2=[1.0, 2.0, 3.0], b2=50.0, c2=0.7),
+              low_microfacet_rgb=dict(preset='alum-bronze'),
+              holzschuch_pacanowski_rgb=dict(channels=3, kd=[0.1, 0.2, 0.3]),
+              sgd_bagher_rgb=dict(preset='alum-bronze'),
+              gtr=dict(alpha=0.3, gamma=1.5, kd=0.2, fresnel='schlick'),
+              sgd=dict(alpha=0.05, p=1.2),
+              ashikhmin_shirley_rgb=dict(channels=3, nu=100.0, nv=10.0, rs=[0.05, 0.5, 0.9],
+                                         rd=[0.2, 0.5, 0.7]),
+              ashikhmin_shirley=dict(preset='alum-bronze:E1'),
+              )[name]
     m = clbrdf.Model(name.replace('_rgb', ''), width=width, precision=precision, device='oclgrind', **kw)
     rng = np.random.default_rng(0)
     v = rng.normal(size=(7, 3)); v[:, 2] = abs(v[:, 2]); v /= np.linalg.norm(v, axis=1, keepdims=True)
@@ -39,7 +52,10 @@ ERRORS = ("Invalid read", "Invalid write", "Uninitialized", "data race", "FATAL"
 @pytest.mark.parametrize("name,width,precision", [
     ("ggx", 1, "single"), ("ggx", 4, "single"), ("ggx", 2, "double"),
     ("beckmann", 4, "single"), ("lambert", 1, "double"), ("ggx_rgb", 4, "single"),
-    ("ggx_rgb", 1, "double")])
+    ("ggx_rgb", 1, "double"), ("schlick_rgb", 4, "single"), ("schlick_rgb", 1, "double"),
+    ("low_smooth_rgb", 4, "single"), ("low_microfacet_rgb", 1, "double"),
+    ("holzschuch_pacanowski_rgb", 4, "single"), ("sgd_bagher_rgb", 1, "double"), ("gtr", 4, "single"),
+    ("sgd", 1, "double"), ("ashikhmin_shirley_rgb", 4, "single"), ("ashikhmin_shirley", 1, "double")])
 def test_kernels_clean_under_oclgrind(tmp_path, name, width, precision):
     script = tmp_path / "run.py"
     script.write_text(SCRIPT)
