@@ -125,6 +125,18 @@ inline realN sincos_r(realN x, realN *c)
 }
 inline realN safe_sqrt(realN x) { return sqrt(fmax(x, (realN)0)); }
 
+/* x^y for x >= 0, y > 0. PoCL 3.1's pow on double8 and double16 returns wrong values in other
+ * lanes when a lane has x = 0 (pow((1.5, 88, 0, ...), 1) gives (1.5, 0.6875, 0, ...)); those
+ * widths use exp(y log x) instead (log 0 = -inf gives 0). */
+inline realN pow_pos(realN x, realN y)
+{
+#if CLBRDF_DOUBLE && W >= 8
+    return exp(y * log(x));
+#else
+    return pow(x, y);
+#endif
+}
+
 /* sin(2 pi u), and cos(2 pi u) in *c, for |u| < 2^22 (samplers' azimuths, u in [0, 1)).
  * The argument is reduced exactly in u (r = u - q/4, q = rint(4u)), so 2 pi r is in
  * [-pi/4, pi/4], where Taylor polynomials of degree 9 (sin) and 10 (cos) err by < 4e-9 in

@@ -54,7 +54,7 @@ inline realN exppow_D(Microfacet m, vec3 h)
     realN s = m.ax, p = m.shape;
     realN z2 = h.z * h.z;
     realN t2 = (h.x * h.x + h.y * h.y) / z2;                         /* tan^2 theta_h */
-    realN e = pow(t2 / (s * s), p);
+    realN e = pow_pos(t2 / (s * s), p);
     realN log_beta = log(p * INV_PI_R / (s * s)) - lgamma(1 / p);       /* eq 19 */
     realN d = exp(log_beta - e - 2 * log(z2));
     return sel((realN)0, d, (h.z > 0) & (e < (realN)(CLBRDF_DOUBLE ? 1400 : 180)));
