@@ -1,15 +1,17 @@
-"""Helpers shared by test_kernels.py and test_sampling.py: model configurations, direction sets,
-float-rounding tolerances, a hemisphere quadrature in the half-vector domain, and statistics
-(Pearson chi-square with pooling, Sidak correction, binomial acceptance intervals).
+"""Helpers shared by the test files: model configurations, direction sets, float-rounding
+tolerances, a hemisphere quadrature in the half-vector domain, statistics (Pearson chi-square
+with pooling, Sidak correction, binomial acceptance intervals), and the chi-square of samples
+over half-vector-map bins.
 
-Nothing here calls the library's own sampling or quadrature code: the quadrature map below is
-written from the geometry of reflection (MODELS.md section 1), so a test that integrates the
-kernel pdf with it checks the kernel against mathematics, not against itself.
+Apart from draw, nothing here calls the library's own sampling or quadrature code: the
+quadrature map below is written from the geometry of reflection (MODELS.md section 1), so a test
+that integrates the kernel pdf with it checks the kernel against mathematics, not against itself.
 """
 from __future__ import annotations
 
 import itertools
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numpy.polynomial.legendre import leggauss
@@ -371,3 +373,94 @@ def binomial_acceptance(n, p, alpha):
     """Two-sided acceptance interval [lo, hi] for a Binomial(n, p) count at significance alpha:
     P(X < lo) <= alpha/2 and P(X > hi) <= alpha/2."""
     return int(sps.binom.ppf(alpha / 2, n, p)), int(sps.binom.isf(alpha / 2, n, p))
+
+
+# ---------------------------------------------------------------------------------------------
+# Samples against a density: chi-square over bins of a quadrature map
+
+def draw(m, wo, n, seed, chunk=None):
+    """n samples (wi as float64, weight, pdf) of Model m for one wo, from the library's Philox
+    numbers (m.random), launched in chunks of ``chunk`` samples when given. Workaround for the
+    single-precision generator bug (test_kernels.test_random_single_in_open_interval_at_cell_centres):
+    a number that comes out as exactly 1.0 (probability 2^-24 each) makes Model.sample raise, so
+    it is replaced by the largest float32 below 1; this changes the distribution by < 2^-24."""
+    u = m.random(n, seed=seed).astype(np.float64)
+    u = np.minimum(u, float(np.nextafter(np.float32(1), np.float32(0))))
+    chunk = chunk or n
+    parts = [m.sample(np.broadcast_to(wo, (min(chunk, n - i), 3)), u[i:i + chunk])
+             for i in range(0, n, chunk)]
+    return (np.concatenate([p[0] for p in parts]).astype(np.float64),
+            np.concatenate([p[1] for p in parts]), np.concatenate([p[2] for p in parts]))
+
+
+def quantile_groups(mass, k):
+    """Group consecutive cells into k groups of about equal mass (by the mid-point quantile of
+    each cell): contiguous, possibly fewer than k when one cell is heavy; all in group 0 when
+    the total mass is not positive."""
+    c = np.cumsum(mass)
+    tot = c[-1]
+    if not tot > 0:
+        return np.zeros(mass.size, int)
+    mid = (c - mass / 2) / tot
+    return np.minimum((mid * k).astype(int), k - 1)
+
+
+def make_bins(P, nb_s, nb_t):
+    """Bin id of each panel of P (ns x nt panel integrals): nb_t columns of equal mass in t, and
+    within each column nb_s rows of equal mass in s. Bins are unions of panels, so their expected
+    counts are sums of panel integrals, with no interpolation."""
+    binmap = np.zeros(P.shape, int)
+    col = quantile_groups(P.sum(axis=0), nb_t)
+    for g in np.unique(col):
+        cols = col == g
+        rows = quantile_groups(P[:, cols].sum(axis=1), nb_s)
+        binmap[:, cols] = (g * nb_s + rows)[:, None]
+    return binmap
+
+
+class MapChi2(NamedTuple):
+    """Result of map_chi2. obs, exp: counts per bin, the last bin below the horizon."""
+    stat: float
+    dof: int
+    p: float
+    qerr: float         # max over bins of |E_hi - E_lo| / sqrt(max(E_hi, 5)), E at the two orders
+    total: float        # integral of the pdf over the upper hemisphere (order hi)
+    total_err: float    # |total at order hi - total at order lo|
+    above: float        # fraction of the samples with wi.z > 0
+    obs: np.ndarray
+    exp: np.ndarray
+    binmap: np.ndarray
+
+
+def map_chi2(hmap, pdf, wi, ns=128, nt=256, orders=(4, 3), nb_s=32, nb_t=32, max_qerr=0.1,
+             nonneg=True):
+    """Pearson chi-square of samples wi (n x 3) against the density pdf (function of an (m, 3)
+    array of wi), over bins on the (s, t) square of hmap (HalfVectorMap or any map with points
+    and coords).
+
+    The pdf is integrated over ns x nt panels by panel_integrals at orders[0] and orders[1];
+    asserts the panels are finite (and >= 0 if nonneg). Bins: make_bins(P, nb_s, nb_t) of the
+    orders[0] panels; expected count n x (sum of panels); one more bin for wi below the horizon,
+    expecting n (1 - integral). If max_qerr is not None, asserts every bin's expected count
+    agrees between the two orders to max_qerr sample standard deviations. Returns MapChi2
+    (chi2_gof pools bins expecting < 5)."""
+    n = len(wi)
+    P = panel_integrals(hmap, pdf, ns, nt, orders[0])
+    P2 = panel_integrals(hmap, pdf, ns, nt, orders[1])
+    assert np.all(np.isfinite(P)) and (not nonneg or np.all(P >= 0))
+    binmap = make_bins(P, nb_s, nb_t)
+    nb = int(binmap.max()) + 1
+    expected = n * np.bincount(binmap.ravel(), weights=P.ravel(), minlength=nb)
+    expected2 = n * np.bincount(binmap.ravel(), weights=P2.ravel(), minlength=nb)
+    qerr = float(np.max(np.abs(expected - expected2) / np.sqrt(np.maximum(expected, 5))))
+    if max_qerr is not None:
+        assert qerr < max_qerr, f"expected counts not converged: {qerr:.3g} sd"
+    up = wi[:, 2] > 0
+    s, t = hmap.coords(wi[up])
+    i_s = np.minimum((s * ns).astype(int), ns - 1)
+    i_t = np.minimum((t * nt).astype(int), nt - 1)
+    obs = np.append(np.bincount(binmap[i_s, i_t], minlength=nb), n - up.sum())
+    exp = np.append(expected, n * max(0.0, 1 - P.sum()))
+    stat, dof, p = chi2_gof(obs, exp)
+    return MapChi2(stat, dof, p, qerr, P.sum(), abs(P.sum() - P2.sum()), up.mean(), obs, exp,
+                   binmap)

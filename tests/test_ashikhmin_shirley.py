@@ -254,13 +254,6 @@ SAMPLING_CASES = [("iso", 0.5), ("aniso", 0.2), ("sharp", 0.9), ("plastic", 0.05
 N_SAMPLES = 1 << 20
 
 
-def draw(m, wo, n, seed):
-    u = m.random(n, seed=seed).astype(np.float64)
-    u = np.minimum(u, float(np.nextafter(F32(1), F32(0))))
-    wi, w, p = m.sample(np.broadcast_to(wo, (n, 3)), u)
-    return wi.astype(np.float64), w, p
-
-
 def diffuse_prob(kw, mu):
     return float(A.diffuse_prob(S.direction(mu, 0.0), A.configure(**kw)))
 
@@ -285,28 +278,10 @@ def test_pdf_integrates_to_fraction_above_horizon(cid, mu, model_cache):
     expect = pd + (1 - pd) * above
     assert abs(total - expect) <= qerr + aerr + 1e-7, (total, expect)
     m = model_cache(NAME, **kw)
-    wi, _, _ = draw(m, wo, N_SAMPLES, zlib.crc32(cid.encode()))
+    wi, _, _ = S.draw(m, wo, N_SAMPLES, zlib.crc32(cid.encode()))
     frac = float(np.mean(wi[:, 2] > 0))
     sigma = math.sqrt(max(expect * (1 - expect), 1.0 / N_SAMPLES) / N_SAMPLES)
     assert abs(expect - frac) <= 4 * sigma, (expect, frac, sigma)
-
-
-def quantile_groups(mass, k):
-    c = np.cumsum(mass)
-    mid = (c - mass / 2) / c[-1]
-    return np.minimum((mid * k).astype(int), k - 1)
-
-
-def make_bins(P, nb_s=32, nb_t=32):
-    """Bins as unions of quadrature panels: nb_t columns of equal mass, nb_s rows of equal mass
-    in each (as tests/test_sampling.py)."""
-    binmap = np.zeros(P.shape, int)
-    col = quantile_groups(P.sum(axis=0), nb_t)
-    for g in np.unique(col):
-        cols = col == g
-        rows = quantile_groups(P[:, cols].sum(axis=1), nb_s)
-        binmap[:, cols] = (g * nb_s + rows)[:, None]
-    return binmap
 
 
 @pytest.mark.chisquare(n=1)
@@ -324,26 +299,9 @@ def test_samples_follow_pdf(cid, mu, model_cache, chi2_alpha):
 
     def pdf(wi):
         return md.pdf(wo, wi)
-    P = S.panel_integrals(hmap, pdf, 128, 256, 4)
-    P3 = S.panel_integrals(hmap, pdf, 128, 256, 3)
-    assert np.all(np.isfinite(P)) and np.all(P >= 0)
-    binmap = make_bins(P)
-    nb = int(binmap.max()) + 1
-    n = N_SAMPLES
-    expected = n * np.bincount(binmap.ravel(), weights=P.ravel(), minlength=nb)
-    expected3 = n * np.bincount(binmap.ravel(), weights=P3.ravel(), minlength=nb)
-    qerr = np.abs(expected - expected3) / np.sqrt(np.maximum(expected, 5))
-    assert qerr.max() < 0.1, f"expected counts not converged: {qerr.max():.3g} sd"
     m = model_cache(NAME, **kw)
-    wi, _, _ = draw(m, wo, n, zlib.crc32(cid.encode()) + 2)
-    up = wi[:, 2] > 0
-    s, t = hmap.coords(wi[up])
-    i_s = np.minimum((s * 128).astype(int), 127)
-    i_t = np.minimum((t * 256).astype(int), 255)
-    observed = np.bincount(binmap[i_s, i_t], minlength=nb)
-    obs = np.append(observed, n - up.sum())
-    exp = np.append(expected, n * max(0.0, 1 - P.sum()))
-    stat, dof, p = S.chi2_gof(obs, exp)
+    wi, _, _ = S.draw(m, wo, N_SAMPLES, zlib.crc32(cid.encode()) + 2)
+    stat, dof, p = S.map_chi2(hmap, pdf, wi, 128, 256, (4, 3), 32, 32)[:3]
     assert p >= chi2_alpha, f"chi2 {stat:.1f} with {dof} dof, p = {p:.3g} < {chi2_alpha:.3g}"
 
 

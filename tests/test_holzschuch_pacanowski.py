@@ -385,26 +385,6 @@ def test_large_rgb_launches(precision, width):
     assert np.all(np.isfinite(r.albedo))
 
 
-def quantile_groups(mass, k):
-    c = np.cumsum(mass)
-    tot = c[-1]
-    if not tot > 0:
-        return np.zeros(mass.size, int)
-    mid = (c - mass / 2) / tot
-    return np.minimum((mid * k).astype(int), k - 1)
-
-
-def make_bins(P):
-    """Bins of about equal expected count, unions of quadrature panels (as test_sampling)."""
-    binmap = np.zeros(P.shape, int)
-    col = quantile_groups(P.sum(axis=0), NB_T)
-    for g in np.unique(col):
-        cols = col == g
-        rows = quantile_groups(P[:, cols].sum(axis=1), NB_S)
-        binmap[:, cols] = (g * NB_S + rows)[:, None]
-    return binmap
-
-
 @pytest.mark.chisquare(n=1)
 @pytest.mark.parametrize("label,name,kw,mu,precision",
                          SAMPLE_CASES + [pytest.param(*c, marks=pytest.mark.slow) for c in SAMPLE_SLOW],
@@ -422,28 +402,17 @@ def test_samples_follow_pdf_and_pdf_normalised(label, name, kw, mu, precision, c
 
     def pdf(wi):
         return md.pdf(wo, wi)
-    P = S.panel_integrals(hmap, pdf, NS_FINE, NT_FINE, 4)
-    P3 = S.panel_integrals(hmap, pdf, NS_FINE, NT_FINE, 3)
-    total, err = P.sum(), abs(P.sum() - P3.sum())
-    assert np.all(np.isfinite(P)) and np.all(P >= 0) and err < 1e-5, (total, err)
     n = N_SAMPLES
     seed = zlib.crc32(label.encode())
     wi, weight, spdf = draw(m, wo, n, seed)
+    r = S.map_chi2(hmap, pdf, wi, NS_FINE, NT_FINE, (4, 3), NB_S, NB_T, max_qerr=None)
+    total, err = r.total, r.total_err
+    assert err < 1e-5, (total, err)
     up = wi[:, 2] > 0
-    frac = up.mean()
+    frac = r.above
     sd = math.sqrt(max(frac * (1 - frac), 1 / n) / n)
     assert abs(total - frac) <= 4 * sd + err + 1e-7, (total, frac, sd)
-    # chi-square
-    binmap = make_bins(P)
-    nb = int(binmap.max()) + 1
-    expected = n * np.bincount(binmap.ravel(), weights=P.ravel(), minlength=nb)
-    s, t = hmap.coords(wi[up])
-    i_s = np.minimum((s * NS_FINE).astype(int), NS_FINE - 1)
-    i_t = np.minimum((t * NT_FINE).astype(int), NT_FINE - 1)
-    obs = np.append(np.bincount(binmap[i_s, i_t], minlength=nb), n - up.sum())
-    exp = np.append(expected, n * max(0.0, 1 - total))
-    stat, dof, pval = S.chi2_gof(obs, exp)
-    assert pval >= chi2_alpha, f"chi2 {stat:.1f} dof {dof} p {pval:.3g}"
+    assert r.p >= chi2_alpha, f"chi2 {r.stat:.1f} dof {r.dof} p {r.p:.3g}"
     # weight and pdf of the samples (a subset, against the double-precision kernels)
     k = np.nonzero(up & (spdf > 0))[0][:4000]
     wo_k = np.broadcast_to(wo, (k.size, 3))

@@ -110,18 +110,6 @@ def case_seed(c, salt):
     return (zlib.crc32(c["id"].encode()) << 8) + salt
 
 
-def draw(m, wo, n, seed):
-    """n samples for wo with the library's Philox numbers. Workaround for the single-precision
-    generator bug (test_kernels.test_random_single_in_open_interval_at_cell_centres): a number
-    that comes out as exactly 1.0 (probability 2^-24 each; about one 2^20-sample batch in four
-    has one) makes Model.sample raise, so such numbers are replaced by the largest float32 below
-    1. This changes the distribution by less than 2^-24."""
-    u = m.random(n, seed=seed).astype(np.float64)
-    u = np.minimum(u, float(np.nextafter(np.float32(1), np.float32(0))))
-    wi, weight, pdf = m.sample(np.broadcast_to(wo, (n, 3)), u)
-    return wi.astype(np.float64), weight, pdf
-
-
 # ---------------------------------------------------------------------------------------------
 # 3. the pdf integrates to the fraction of samples above the horizon
 
@@ -144,7 +132,7 @@ def test_pdf_integrates_to_fraction_above_horizon(c, model_cache):
     coarse = S.panel_integrals(hmap, pdf, 48, 192, 6).sum()
     quad_err = abs(total - coarse)
     assert np.isfinite(total) and quad_err < 1e-6, f"quadrature not converged: {total} vs {coarse}"
-    wi, _, _ = draw(m, wo, N_SAMPLES, case_seed(c, 1))
+    wi, _, _ = S.draw(m, wo, N_SAMPLES, case_seed(c, 1))
     frac = float(np.mean(wi[:, 2] > 0))
     sigma = math.sqrt(max(frac * (1 - frac), 1.0 / N_SAMPLES) / N_SAMPLES)
     assert abs(total - frac) <= 4 * sigma + quad_err + 1e-7, \
@@ -157,30 +145,6 @@ def test_pdf_integrates_to_fraction_above_horizon(c, model_cache):
 
 NS_FINE, NT_FINE = 128, 256        # quadrature panels in s and t (t: see the pdf test)
 NB_S, NB_T = 32, 32                # bins: NB_T columns in t, NB_S rows in s per column
-
-
-def quantile_groups(mass, k):
-    """Group consecutive cells into k groups of about equal mass (by the mid-point quantile of
-    each cell): contiguous, possibly fewer than k when one cell is heavy."""
-    c = np.cumsum(mass)
-    tot = c[-1]
-    if not tot > 0:
-        return np.zeros(mass.size, int)
-    mid = (c - mass / 2) / tot
-    return np.minimum((mid * k).astype(int), k - 1)
-
-
-def make_bins(P):
-    """Bin id of each fine quadrature panel: NB_T columns of equal mass in t, and within each
-    column NB_S rows of equal mass in s. Bins are unions of panels, so their expected counts are
-    sums of panel integrals, with no interpolation."""
-    binmap = np.zeros(P.shape, int)
-    col = quantile_groups(P.sum(axis=0), NB_T)
-    for g in np.unique(col):
-        cols = col == g
-        rows = quantile_groups(P[:, cols].sum(axis=1), NB_S)
-        binmap[:, cols] = (g * NB_S + rows)[:, None]
-    return binmap
 
 
 @pytest.mark.chisquare(n=1)
@@ -207,40 +171,23 @@ def test_samples_follow_pdf(c, model_cache, chi2_alpha):
 
     def pdf(wi):
         return md.pdf(wo, wi)
-    P = S.panel_integrals(hmap, pdf, NS_FINE, NT_FINE, 4)
-    P3 = S.panel_integrals(hmap, pdf, NS_FINE, NT_FINE, 3)
-    assert np.all(np.isfinite(P)) and np.all(P >= 0)
-    binmap = make_bins(P)
-    nb = int(binmap.max()) + 1
-    n = N_SAMPLES
-    expected = n * np.bincount(binmap.ravel(), weights=P.ravel(), minlength=nb)
-    expected3 = n * np.bincount(binmap.ravel(), weights=P3.ravel(), minlength=nb)
-    qerr = np.abs(expected - expected3) / np.sqrt(np.maximum(expected, 5))
-    assert qerr.max() < 0.1, f"expected counts not converged: {qerr.max():.3g} sd"
-
-    wi, _, _ = draw(m, wo, n, case_seed(c, 2))
-    up = wi[:, 2] > 0
-    s, t = hmap.coords(wi[up])
-    i_s = np.minimum((s * NS_FINE).astype(int), NS_FINE - 1)
-    i_t = np.minimum((t * NT_FINE).astype(int), NT_FINE - 1)
-    observed = np.bincount(binmap[i_s, i_t], minlength=nb)
-    obs = np.append(observed, n - up.sum())
-    exp = np.append(expected, n * max(0.0, 1 - P.sum()))
-    stat, dof, p = S.chi2_gof(obs, exp)
-    if p < chi2_alpha:
-        contrib = (obs - exp) ** 2 / np.maximum(exp, 1e-300)
+    wi, _, _ = S.draw(m, wo, N_SAMPLES, case_seed(c, 2))
+    r = S.map_chi2(hmap, pdf, wi, NS_FINE, NT_FINE, (4, 3), NB_S, NB_T)
+    if r.p < chi2_alpha:
+        nb = r.obs.size - 1          # the last bin: below the horizon
+        contrib = (r.obs - r.exp) ** 2 / np.maximum(r.exp, 1e-300)
         worst = np.argsort(-contrib)[:6]
         desc = []
         for b in worst:
             if b == nb:
-                desc.append(f"below horizon: obs {obs[b]} exp {exp[b]:.1f}")
+                desc.append(f"below horizon: obs {r.obs[b]} exp {r.exp[b]:.1f}")
                 continue
-            ii, tt = np.nonzero(binmap == b)
+            ii, tt = np.nonzero(r.binmap == b)
             desc.append(f"s [{ii.min() / NS_FINE:.3f}, {(ii.max() + 1) / NS_FINE:.3f}) "
                         f"t [{tt.min() / NT_FINE:.3f}, {(tt.max() + 1) / NT_FINE:.3f}): "
-                        f"obs {obs[b]} exp {exp[b]:.1f}")
-        pytest.fail(f"chi2 {stat:.1f} with {dof} dof, p = {p:.3g} < {chi2_alpha:.3g}; "
-                    f"integral of pdf {P.sum():.6f}, fraction above {up.mean():.6f}; worst bins:\n  "
+                        f"obs {r.obs[b]} exp {r.exp[b]:.1f}")
+        pytest.fail(f"chi2 {r.stat:.1f} with {r.dof} dof, p = {r.p:.3g} < {chi2_alpha:.3g}; "
+                    f"integral of pdf {r.total:.6f}, fraction above {r.above:.6f}; worst bins:\n  "
                     + "\n  ".join(desc))
 
 

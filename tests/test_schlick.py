@@ -353,13 +353,6 @@ def case_map(c):
                            kw.get("psi", 0.0))
 
 
-def draw(m, wo, n, seed):
-    u = m.random(n, seed=seed).astype(np.float64)
-    u = np.minimum(u, float(np.nextafter(np.float32(1), np.float32(0))))
-    wi, wt, pdf = m.sample(np.broadcast_to(wo, (n, 3)), u)
-    return wi.astype(np.float64), wt, pdf
-
-
 @pytest.mark.parametrize("c", SAMPLER_CASES)
 def test_pdf_integrates_to_fraction_above_horizon(c, model_cache):
     """The kernel pdf (double) integrated over the upper hemisphere by
@@ -371,22 +364,11 @@ def test_pdf_integrates_to_fraction_above_horizon(c, model_cache):
     wo = S.direction(c["mu"], c["phi"])
     total, err = R.mixture_integral(lambda wi: md.pdf(wo, wi), wo, tol=1e-8, **c["kw"])
     assert err < 1e-7
-    wi, _, _ = draw(m, wo, 1 << 20, zlib.crc32(c["id"].encode()))
+    wi, _, _ = S.draw(m, wo, 1 << 20, zlib.crc32(c["id"].encode()))
     frac = float(np.mean(wi[:, 2] > 0))
     sigma = math.sqrt(max(frac * (1 - frac), 1 / (1 << 20)) / (1 << 20))
     assert abs(total - frac) <= 4 * sigma + err + 1e-7, (total, frac, sigma)
     assert total <= 1 + err + 1e-7
-
-
-def panel_integrals(hmap, pdf, ns, nt, order):
-    x, w = S.gl01(order)
-    s = ((np.arange(ns)[:, None] + x) / ns).reshape(-1)
-    t = ((np.arange(nt)[:, None] + x) / nt).reshape(-1)
-    Sg, Tg = np.meshgrid(s, t, indexing="ij")
-    wi, jac = hmap.points(Sg, Tg)
-    v = np.asarray(pdf(wi.reshape(-1, 3)), float).reshape(Sg.shape) * jac
-    v = v.reshape(ns, order, nt, order)
-    return np.einsum("iajb,a,b->ij", v, w, w) / (ns * nt)
 
 
 @pytest.mark.chisquare(n=1)
@@ -397,7 +379,6 @@ def test_samples_follow_pdf(c, model_cache, chi2_alpha):
     azimuth graded by p sinh, polar by the CDF of Z): 128 x 256 panels integrated by 4 x 4
     Gauss-Legendre (checked against 3 x 3: 0.1 sd per bin), grouped into ~1000 bins of equal
     expected count, plus one bin below the horizon; pooled below 5; Sidak-corrected."""
-    from test_sampling import make_bins
     m = model_cache("schlick", precision=c["precision"], **c["kw"])
     md = model_cache("schlick", precision="double", **c["kw"])
     hmap = case_map(c)
@@ -405,28 +386,10 @@ def test_samples_follow_pdf(c, model_cache, chi2_alpha):
 
     def pdf(wi):
         return md.pdf(wo, wi)
-    ns, nt = 128, 256
-    P = panel_integrals(hmap, pdf, ns, nt, 4)
-    P3 = panel_integrals(hmap, pdf, ns, nt, 3)
-    assert np.all(np.isfinite(P)) and np.all(P >= 0)
-    binmap = make_bins(P)
-    nb = int(binmap.max()) + 1
-    n = 1 << 20
-    expected = n * np.bincount(binmap.ravel(), weights=P.ravel(), minlength=nb)
-    expected3 = n * np.bincount(binmap.ravel(), weights=P3.ravel(), minlength=nb)
-    qerr = np.abs(expected - expected3) / np.sqrt(np.maximum(expected, 5))
-    assert qerr.max() < 0.1, f"expected counts not converged: {qerr.max():.3g} sd"
-    wi, _, _ = draw(m, wo, n, zlib.crc32(c["id"].encode()) + 1)
-    up = wi[:, 2] > 0
-    s, t = hmap.coords(wi[up])
-    i_s = np.minimum((s * ns).astype(int), ns - 1)
-    i_t = np.minimum((t * nt).astype(int), nt - 1)
-    observed = np.bincount(binmap[i_s, i_t], minlength=nb)
-    obs = np.append(observed, n - up.sum())
-    exp = np.append(expected, n * max(0.0, 1 - P.sum()))
-    stat, dof, pv = S.chi2_gof(obs, exp)
-    assert pv >= chi2_alpha, (f"chi2 {stat:.1f} dof {dof} p {pv:.3g}; integral {P.sum():.6f}, "
-                              f"above {up.mean():.6f}")
+    wi, _, _ = S.draw(m, wo, 1 << 20, zlib.crc32(c["id"].encode()) + 1)
+    r = S.map_chi2(hmap, pdf, wi, 128, 256, (4, 3), 32, 32)
+    assert r.p >= chi2_alpha, (f"chi2 {r.stat:.1f} dof {r.dof} p {r.p:.3g}; integral {r.total:.6f}, "
+                               f"above {r.above:.6f}")
 
 
 # ---------------------------------------------------------------------------------------------
