@@ -12,8 +12,8 @@
  *     = exp(-g L) h(L) / h(-g L),  g = 1 - gamma, L = ln a^2, h(z) = expm1(z)/z (h(0) = 1),
  * the same expression for gamma = 1 (c = (1 - a^2)/(2 ln(1/a)), Table 1's second column).
  * Lambda: gamma = 1 in closed form (derived in docs/models/distributions.md); otherwise the
- * table of kernels/dist_lambda_tables.h relative to Lambda_gtr1^(1-w) Lambda_ggx^w, w = max(g', 0),
- * g' = gamma - 1 (exact at gamma = 1 and 2).
+ * table of kernels/dist_lambda_tables.h relative to Lambda_gtr1^(1-w) Lambda_ggx^w, w = gamma - 1
+ * (exact at gamma = 2, a node of the table whose values are 0).
  * Sampling: the CDF of x is closed form: w = (a^2 + x)/(1 + x) has w^g uniform between a^(2g)
  * and 1 (gamma = 1: ln w uniform between L and 0); no visible-normal sampler.
  */
@@ -61,12 +61,12 @@ inline realN gtr_Lambda(Microfacet m, vec3 w)
     realN a = m.ax, gamma = m.shape;
     realN z = fabs(w.z), s2 = w.x * w.x + w.y * w.y;
     realN lg, l1 = gtr_lambda1(a, z, s2, &lg);
-    /* table coordinates: gamma, log2 a, log2(a tan theta) */
-    realN xs = (gamma - (realN)GTR_LT_S0) / (realN)GTR_LT_DS;
-    realN xa = (log2(a) - (realN)GTR_LT_LA0) / (realN)GTR_LT_DLA;
+    /* table coordinates: gamma, log2 a + KA a, log2(a tan theta) */
+    realN xs = (gamma - (realN)GTR_LT_SREF) * (realN)GTR_LT_IDS + (realN)GTR_LT_SIDX;
+    realN xa = (log2(a) + (realN)GTR_LT_KA * a - (realN)GTR_LT_LA0) / (realN)GTR_LT_DLA;
     realN xt = (log2(a * sqrt(s2) / z) - (realN)GTR_LT_LT0) / (realN)GTR_LT_DLT;
     realN R = lambda_table_R(gtr_lambda_table, GTR_LT_NS, GTR_LT_NA, GTR_LT_NT, xs, xa, xt);
-    realN wgt = fmax(gamma - 1, (realN)0);
+    realN wgt = gamma - 1;
     realN lam = l1 * exp(wgt * log(lg / l1) + R);
     lam = sel(lam, l1, gamma == 1);                  /* the closed form, exactly */
     return sel(lam, (realN)0, (l1 <= 0) | (lg <= 0));

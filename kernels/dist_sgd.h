@@ -107,7 +107,7 @@ inline realN sgd_D(Microfacet m, vec3 h)
 #ifndef SGD_NO_LAMBDA
 #include "dist_lambda.h"
 
-/* Lambda from the table: R at (p, log2 a, log2(sqrt(m2) tan theta)), m2 = a (E[y] - a) the mean
+/* Lambda from the table: R at (p, log2 a + KA a, log2(sqrt(m2) tan theta)), m2 = a (E[y] - a) the mean
  * tan^2 theta_h, E[y] = 1 - p + a^(1-p) e^-a / Q(a), times Beckmann Lambda with alpha_b = sqrt(a). */
 inline realN sgd_Lambda(Microfacet m, vec3 w)
 {
@@ -115,8 +115,8 @@ inline realN sgd_Lambda(Microfacet m, vec3 w)
     realN z = fabs(w.z), sn = sqrt(w.x * w.x + w.y * w.y);
     realN qa = sgd_Q(a, p, sgd_CF((realN)2, p));
     realN m2 = a * (1 - p + exp((1 - p) * log(a) - a) / qa - a);
-    realN xs = (p - (realN)SGD_LT_S0) / (realN)SGD_LT_DS;
-    realN xa = (log2(a) - (realN)SGD_LT_LA0) / (realN)SGD_LT_DLA;
+    realN xs = (p - (realN)SGD_LT_SREF) * (realN)SGD_LT_IDS + (realN)SGD_LT_SIDX;
+    realN xa = (log2(a) + (realN)SGD_LT_KA * a - (realN)SGD_LT_LA0) / (realN)SGD_LT_DLA;
     realN xt = (log2(sqrt(m2) * sn / z) - (realN)SGD_LT_LT0) / (realN)SGD_LT_DLT;
     realN R = lambda_table_R(sgd_lambda_table, SGD_LT_NS, SGD_LT_NA, SGD_LT_NT, xs, xa, xt);
     /* Beckmann (microfacet_distributions.h), mu = 1 / (sqrt(a) tan theta) */

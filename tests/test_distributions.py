@@ -24,9 +24,8 @@ from clbrdf.ref import distributions as RD
 from clbrdf.spec import ParameterError
 
 N_SAMPLES = 1 << 20
-# max |G1 - G1_quad| of the Lambda tables, as measured by scripts/make_lambda_tables.py and stated
-# in kernels/dist_lambda_tables.h (4.6e-3 and 2.2e-3), rounded up
-TABLE_G1_ERR = {"gtr": 5e-3, "sgd": 2.5e-3}
+# max |G1 - G1_quad| of the Lambda tables (stated in kernels/dist_lambda_tables.h), rounded up
+from test_distributions_lambda import TABLE_G1_ERR  # noqa: E402
 
 GTR_CASES = [dict(alpha=0.3, gamma=1.5), dict(alpha=0.01, gamma=3.3), dict(alpha=0.9, gamma=0.7),
              dict(alpha=0.2, gamma=1.0), dict(alpha=0.05, gamma=2.0)]
@@ -239,40 +238,6 @@ SAMPLING_CASES = [("gtr", dict(alpha=0.3, gamma=1.5), 0.5), ("gtr", dict(alpha=0
 SAMPLING_IDS = [cid(m, k) + f"-mu{mu:g}" for m, k, mu in SAMPLING_CASES]
 
 
-def quantile_groups(mass, k):
-    c = np.cumsum(mass)
-    tot = c[-1]
-    if not tot > 0:
-        return np.zeros(mass.size, int)
-    mid = (c - mass / 2) / tot
-    return np.minimum((mid * k).astype(int), k - 1)
-
-
-def make_bins(P):
-    """NB_T columns of equal mass in t, NB_S rows of equal mass in s within each (as in
-    tests/test_sampling.py)."""
-    binmap = np.zeros(P.shape, int)
-    col = quantile_groups(P.sum(axis=0), NB_T)
-    for g in np.unique(col):
-        cols = col == g
-        rows = quantile_groups(P[:, cols].sum(axis=1), NB_S)
-        binmap[:, cols] = (g * NB_S + rows)[:, None]
-    return binmap
-
-
-def draw(m, wo, n, seed, chunk=None):
-    """n samples for wo with the library's Philox numbers (as tests/test_sampling.py: a number
-    that rounds to 1.0 in single precision is replaced by the largest float below 1); launched
-    in chunks of ``chunk`` samples when given (see chunked_pdf)."""
-    u = m.random(n, seed=seed).astype(np.float64)
-    u = np.minimum(u, float(np.nextafter(np.float32(1), np.float32(0))))
-    chunk = chunk or n
-    parts = [m.sample(np.broadcast_to(wo, (min(chunk, n - i), 3)), u[i:i + chunk])
-             for i in range(0, n, chunk)]
-    return (np.concatenate([p[0] for p in parts]).astype(np.float64),
-            np.concatenate([p[1] for p in parts]), np.concatenate([p[2] for p in parts]))
-
-
 @pytest.mark.chisquare(n=1)
 @pytest.mark.parametrize("model,kw,mu", SAMPLING_CASES, ids=SAMPLING_IDS)
 def test_samples_follow_pdf(model, kw, mu, model_cache, chi2_alpha):
@@ -287,28 +252,13 @@ def test_samples_follow_pdf(model, kw, mu, model_cache, chi2_alpha):
 
     def pdf(wi):
         return md.pdf(wo, wi)
-    P = S.panel_integrals(hmap, pdf, NS_FINE, NT_FINE, 4)
-    P3 = S.panel_integrals(hmap, pdf, NS_FINE, NT_FINE, 3)
-    assert np.all(np.isfinite(P)) and np.all(P >= 0)
-    quad_err = abs(P.sum() - P3.sum())
-    assert quad_err < 1e-5
     n = N_SAMPLES
-    wi, _, _ = draw(m, wo, n, zlib.crc32(cid(model, kw).encode()))
-    up = wi[:, 2] > 0
-    frac = up.mean()
-    sigma = math.sqrt(max(frac * (1 - frac), 1 / n) / n)
-    assert abs(P.sum() - frac) <= 4 * sigma + quad_err + 1e-7
-    binmap = make_bins(P)
-    nb = int(binmap.max()) + 1
-    expected = n * np.bincount(binmap.ravel(), weights=P.ravel(), minlength=nb)
-    s, t = hmap.coords(wi[up])
-    i_s = np.minimum((s * NS_FINE).astype(int), NS_FINE - 1)
-    i_t = np.minimum((t * NT_FINE).astype(int), NT_FINE - 1)
-    observed = np.bincount(binmap[i_s, i_t], minlength=nb)
-    obs = np.append(observed, n - up.sum())
-    exp = np.append(expected, n * max(0.0, 1 - P.sum()))
-    stat, dof, p = S.chi2_gof(obs, exp)
-    assert p >= chi2_alpha, f"chi2 {stat:.1f} with {dof} dof, p = {p:.3g} < {chi2_alpha:.3g}"
+    wi, _, _ = S.draw(m, wo, n, zlib.crc32(cid(model, kw).encode()))
+    r = S.map_chi2(hmap, pdf, wi, NS_FINE, NT_FINE, (4, 3), NB_S, NB_T, max_qerr=None)
+    assert r.total_err < 1e-5
+    sigma = math.sqrt(max(r.above * (1 - r.above), 1 / n) / n)
+    assert abs(r.total - r.above) <= 4 * sigma + r.total_err + 1e-7
+    assert r.p >= chi2_alpha, f"chi2 {r.stat:.1f} with {r.dof} dof, p = {r.p:.3g} < {chi2_alpha:.3g}"
 
 
 ALBEDO_CASES = [("gtr", dict(alpha=0.3, gamma=1.5), "none"), ("gtr", dict(alpha=0.05, gamma=1.0), "none"),
@@ -445,25 +395,14 @@ def test_bagher_samples_follow_pdf(mu, model_cache, chi2_alpha):
     sc = min(slope_scale("sgd", dict(alpha=a, p=p)) for a, p in zip(BAGHER["alpha"], BAGHER["p"]))
     hmap = S.HalfVectorMap(S.direction(mu, 1.0), sc, sc)
     wo = hmap.wo
-    P = S.panel_integrals(hmap, lambda w: chunked_pdf(md, wo, w), NS_FINE, NT_FINE, 4)
-    P3 = S.panel_integrals(hmap, lambda w: chunked_pdf(md, wo, w), NS_FINE, NT_FINE, 3)
-    quad_err = abs(P.sum() - P3.sum())
-    assert np.all(np.isfinite(P)) and quad_err < 1e-5
     n = N_SAMPLES
-    wi, _, _ = draw(m, wo, n, 99, chunk=CHUNK)
-    up = wi[:, 2] > 0
-    frac = up.mean()
-    assert abs(P.sum() - frac) <= 4 * math.sqrt(max(frac * (1 - frac), 1 / n) / n) + quad_err + 1e-7
-    binmap = make_bins(P)
-    nb = int(binmap.max()) + 1
-    expected = n * np.bincount(binmap.ravel(), weights=P.ravel(), minlength=nb)
-    s, t = hmap.coords(wi[up])
-    i_s = np.minimum((s * NS_FINE).astype(int), NS_FINE - 1)
-    i_t = np.minimum((t * NT_FINE).astype(int), NT_FINE - 1)
-    obs = np.append(np.bincount(binmap[i_s, i_t], minlength=nb), n - up.sum())
-    exp = np.append(expected, n * max(0.0, 1 - P.sum()))
-    stat, dof, p = S.chi2_gof(obs, exp)
-    assert p >= chi2_alpha, f"chi2 {stat:.1f} with {dof} dof, p = {p:.3g}"
+    wi, _, _ = S.draw(m, wo, n, 99, chunk=CHUNK)
+    r = S.map_chi2(hmap, lambda w: chunked_pdf(md, wo, w), wi, NS_FINE, NT_FINE, (4, 3), NB_S, NB_T,
+                   max_qerr=None, nonneg=False)
+    assert r.total_err < 1e-5
+    frac = r.above
+    assert abs(r.total - frac) <= 4 * math.sqrt(max(frac * (1 - frac), 1 / n) / n) + r.total_err + 1e-7
+    assert r.p >= chi2_alpha, f"chi2 {r.stat:.1f} with {r.dof} dof, p = {r.p:.3g}"
 
 
 def test_bagher_albedo_matches_reference(model_cache):
