@@ -158,10 +158,10 @@ def lambda_gtr1(tan_theta, alpha):
     mu = 1/t."""
     t = np.asarray(tan_theta, float)
     a = float(alpha)
-    with np.errstate(divide="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore"):    # t = 0: inf - inf, replaced by 0
         mu = 1 / t
-    num = (np.arcsinh(mu / a) - np.arcsinh(mu) - math.log(1 / a)
-           - np.sqrt(1 + a * a * t * t) + np.sqrt(1 + t * t))
+        num = (np.arcsinh(mu / a) - np.arcsinh(mu) - math.log(1 / a)
+               - np.sqrt(1 + a * a * t * t) + np.sqrt(1 + t * t))
     return np.where(t > 0, num / (2 * math.log(1 / a)), 0.0)
 
 
