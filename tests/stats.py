@@ -17,6 +17,20 @@ import numpy as np
 from numpy.polynomial.legendre import leggauss
 from scipy import stats as sps
 
+def assert_close(got, ref, rtol, atol=0.0, what=""):
+    """|got - ref| <= rtol |ref| + atol everywhere (NaN fails); the message shows the 5 worst."""
+    got, ref = np.asarray(got, float), np.asarray(ref, float)
+    err = np.abs(got - ref)
+    tol = rtol * np.abs(ref) + atol
+    bad = ~(err <= tol)
+    if np.any(bad):
+        i = np.argsort(-(err / np.maximum(tol, 1e-300)).ravel())[:5]
+        raise AssertionError(f"{what}: {bad.sum()} of {bad.size} outside tolerance; worst: "
+                             + "; ".join(f"got {got.ravel()[j]:.9g} ref {ref.ravel()[j]:.9g} "
+                                         f"tol {np.broadcast_to(tol, got.shape).ravel()[j]:.3g}"
+                                         for j in i))
+
+
 EPS32 = float(np.finfo(np.float32).eps) / 2       # unit roundoff, 2^-24
 EPS64 = float(np.finfo(np.float64).eps) / 2       # 2^-53
 

@@ -92,17 +92,7 @@ def cond(name, kw, wi, wo, eps):
             + 4 * eps / np.maximum(oh, 1e-6) ** 2)
 
 
-def assert_close(got, ref, rtol, atol=0.0, what=""):
-    got, ref = np.asarray(got, float), np.asarray(ref, float)
-    err = np.abs(got - ref)
-    tol = rtol * np.abs(ref) + atol
-    bad = ~(err <= tol)
-    if np.any(bad):
-        i = np.argsort(-(err / np.maximum(tol, 1e-300)).ravel())[:5]
-        raise AssertionError(f"{what}: {bad.sum()} of {bad.size} outside tolerance; worst: "
-                             + "; ".join(f"got {got.ravel()[j]:.9g} ref {ref.ravel()[j]:.9g} "
-                                         f"tol {np.broadcast_to(tol, got.shape).ravel()[j]:.3g}"
-                                         for j in i))
+assert_close = S.assert_close
 
 
 # ---------------------------------------------------------------------------------------------
