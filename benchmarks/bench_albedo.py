@@ -183,7 +183,7 @@ class ClbrdfRow(Row):
         kw = {} if self.width is None else {"width": self.width}
         self.model = clbrdf.Model("ggx", alpha=self.alpha, precision=self.precision, device=self.device, **kw)
         t = time.perf_counter()
-        self.model.program(estimator=self.estimator, rng="sobol" if self.qmc else "philox")
+        self.model.program(part="albedo", estimator=self.estimator, rng="sobol" if self.qmc else "philox")
         self.compile_s = time.perf_counter() - t
         self.label += f" (W={self.model.width})"
 

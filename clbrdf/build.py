@@ -49,12 +49,29 @@ def expand(name: str, seen: set | None = None) -> str:
     return f'// ---- {name} ----\n' + _INCLUDE.sub(sub, read_kernel(name))
 
 
-def program_source(cfg: Config, precision: str, width: int, *, estimator: str = "brdf",
-                   rng: str = "philox") -> str:
+PARTS = ("batch", "random", "albedo")
+
+
+def program_source(cfg: Config, precision: str, width: int, *, part: str = "batch",
+                   estimator: str = "brdf", rng: str = "philox") -> str:
+    """The self-contained source of one program. ``part`` picks its kernels, so that a program
+    holds only the code its caller runs: ``batch`` (eval_batch, pdf_batch, sample_batch),
+    ``albedo`` (albedo_blocks for one estimator and generator) or ``random`` (random_batch for one
+    generator; it contains no model, so one program serves every model)."""
+    if part not in PARTS:
+        raise ValueError(f"part={part!r}: choose one of {', '.join(PARTS)}")
     lines = [f"#define CLBRDF_DOUBLE {int(precision == 'double')}", f"#define W {width}",
-             f"#define BLOCK {BLOCK}", f"#define MODEL {cfg.prefix}",
-             f"#define ESTIMATOR ESTIMATOR_{estimator.upper()}", f"#define RNG rand_{rng}",
-             f"#define RNG_PHILOX {int(rng == 'philox')}", f"#define CHANNELS {cfg.channels}"]
+             f"#define KERNELS KERNELS_{part.upper()}"]
+    seen: set = set()
+    body = [expand(f, seen) for f in ("common.h", "rng.h", "warp.h")]
+    if part == "random":
+        lines += [f"#define RNG rand_{rng}"]
+        body.append(expand("integrators.cl", seen))
+        return "\n".join(lines) + "\n" + "\n".join(body)
+    lines += [f"#define MODEL {cfg.prefix}", f"#define CHANNELS {cfg.channels}"]
+    if part == "albedo":
+        lines += [f"#define BLOCK {BLOCK}", f"#define ESTIMATOR ESTIMATOR_{estimator.upper()}",
+                  f"#define RNG rand_{rng}", f"#define RNG_PHILOX {int(rng == 'philox')}"]
     lines += [f"#define {k} {v}" for k, v in cfg.defines]
     # X(name, row) for scalars, XS(name, first row) for spectral parameters (CHANNELS rows)
     items, fields, row = [], [], 0
@@ -64,8 +81,6 @@ def program_source(cfg: Config, precision: str, width: int, *, estimator: str = 
         fields.append(f"    realN {n}{'[CHANNELS]' if spectral else ''};")
         row += cfg.rows(n)
     lines.append(f"#define PARAMS(X, XS) {' '.join(items)}")
-    seen: set = set()
-    body = [expand(f, seen) for f in ("common.h", "rng.h", "warp.h")]
     body.append("typedef struct {\n" + "\n".join(fields) + "\n} Params;\n")
     body += [expand(h, seen) for h in cfg.headers]
     body.append(expand(cfg.header, seen))

@@ -127,7 +127,7 @@ class Model:
                                   hostbuf=self._soa(shape, list(arr), n_pad)))
         host_out = [np.empty((k, n_pad), dtype=self.dtype) for k in outputs]
         out_bufs = [cl.Buffer(ctx, mf.WRITE_ONLY, h.nbytes) for h in host_out]
-        prog = self.program()
+        prog = self.program(part="batch")
         _kernel(prog, kernel)(q, *_ndrange(n_pad // w, self.device), *bufs, np.uint64(n_pad), *out_bufs)
         for h, b in zip(host_out, out_bufs):
             cl.enqueue_copy(q, h, b)
@@ -186,7 +186,7 @@ class Model:
         import pyopencl as cl
         w = self.width
         n_pad = max(w, -(-n // w) * w)
-        prog = self.program(rng="sobol" if qmc else "philox")
+        prog = self.program(part="random", rng="sobol" if qmc else "philox")
         buf = cl.Buffer(self.device.context, cl.mem_flags.WRITE_ONLY, 4 * n_pad * np.dtype(self.dtype).itemsize)
         lo, hi = _seed_words(seed)
         _kernel(prog, "random_batch")(self.device.queue, *_ndrange(n_pad // w, self.device), np.uint64(n_pad), np.uint32(point),
@@ -258,7 +258,7 @@ def albedo(m: Model, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 <
     blocks = streams * bps
     s_theta = np.sqrt(np.maximum(0.0, 1 - mu * mu))
     wo = [s_theta * np.cos(phi), s_theta * np.sin(phi), mu]
-    kernel = _kernel(m.program(estimator=estimator, rng="sobol" if qmc else "philox"), "albedo_blocks")
+    kernel = _kernel(m.program(part="albedo", estimator=estimator, rng="sobol" if qmc else "philox"), "albedo_blocks")
     lo, hi = _seed_words(seed)
     ctx, q = m.device.context, m.device.queue
     mf = cl.mem_flags
@@ -314,13 +314,18 @@ def _ndrange(items: int, device: Device):
 
     The local size is explicit: left to itself PoCL makes work-groups of up to 4096 items whose
     contexts live on an 8 MB thread stack, which overflows for models with many parameters
-    (an RGB Holzschuch-Pacanowski launch crashed). A power of two up to LOCAL_SIZE, smaller for
-    small launches so that every compute unit gets work groups."""
+    (an RGB Holzschuch-Pacanowski launch crashed). On a CPU it is 1 or LOCAL_SIZE and nothing in
+    between: PoCL compiles a kernel once per local size (about 0.1 s at W = 16), and 1 keeps
+    every compute unit busy in small launches. On a GPU: a power of two up to LOCAL_SIZE, smaller
+    for small launches so that every compute unit gets work groups."""
+    cu = device.info.compute_units
+    if not device.info.is_gpu:
+        return ((-(-items // LOCAL_SIZE) * LOCAL_SIZE,), (LOCAL_SIZE,)) \
+            if items >= LOCAL_SIZE * 4 * cu else ((items,), (1,))
     local = 1
-    while local < LOCAL_SIZE and local * 2 * 4 * device.info.compute_units <= items:
+    while local < LOCAL_SIZE and local * 2 * 4 * cu <= items:
         local *= 2
     return (-(-items // local) * local,), (local,)
-
 
 
 def _kernel(prog, name: str):

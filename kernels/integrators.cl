@@ -5,23 +5,48 @@
  *   PARAMS(X, XS)  X(name, row) for each scalar parameter of the configuration, XS(name, row)
  *               for each spectral one (rows row .. row + CHANNELS - 1)
  *   CHANNELS    1, or 3 (RGB): a model's value and weight have CHANNELS components
+ *   KERNELS     KERNELS_BATCH (eval_batch, pdf_batch, sample_batch), KERNELS_ALBEDO
+ *               (albedo_blocks) or KERNELS_RANDOM (random_batch: no model, no Params)
  *   MODEL       the model's function prefix (lambert, microfacet, ...)
- *   ESTIMATOR   ESTIMATOR_UNIFORM | ESTIMATOR_COSINE | ESTIMATOR_BRDF | ESTIMATOR_MIS
- *   RNG         rand_philox | rand_sobol (RNG_PHILOX 1 for the first)
+ *   ESTIMATOR   ESTIMATOR_UNIFORM | ESTIMATOR_COSINE | ESTIMATOR_BRDF | ESTIMATOR_MIS (albedo)
+ *   RNG         rand_philox | rand_sobol (RNG_PHILOX 1 for the first; albedo and random)
  *   BLOCK       samples per work-item in the albedo kernel (a multiple of W)
  * and includes the model header after common.h, rng.h, warp.h (see clbrdf/build.py).
+ * A program holds one part only, so it compiles no code its caller does not run.
  *
  * Parameter arrays are structure-of-arrays: row j of query i at P[j * stride + i]; outputs with
  * channels likewise (channel c of query i at out[c * stride + i]).
  */
+
+#define KERNELS_BATCH 0
+#define KERNELS_ALBEDO 1
+#define KERNELS_RANDOM 2
 
 #define ESTIMATOR_UNIFORM 0
 #define ESTIMATOR_COSINE 1
 #define ESTIMATOR_BRDF 2
 #define ESTIMATOR_MIS 3
 
+#if KERNELS == KERNELS_RANDOM
+
+/* Uniform numbers from the library's generators, 4 per query (for tests and users). */
+__kernel void random_batch(const ulong n, const uint point, const uint stream, const uint seed_lo,
+                           const uint seed_hi, global real_t *U)
+{
+    ulong i = get_global_id(0) * W;
+    if (i >= n) return;
+    rand4 u = RNG((uintN)(uint)i + LANE_IDS, point, stream, seed_lo, seed_hi);
+    VSTORE(u.u0, U + i);
+    VSTORE(u.u1, U + n + i);
+    VSTORE(u.u2, U + 2 * n + i);
+    VSTORE(u.u3, U + 3 * n + i);
+}
+
+#else /* KERNELS_BATCH or KERNELS_ALBEDO: a model's kernels */
+
 #define BRDF(fn) CAT(MODEL, CAT(_, fn))
 
+#if KERNELS == KERNELS_ALBEDO
 /* How many of the four numbers an estimate uses (a model header defines MODEL_SAMPLE_DIMS). */
 #if ESTIMATOR == ESTIMATOR_UNIFORM || ESTIMATOR == ESTIMATOR_COSINE
 #define ESTIMATOR_DIMS 2
@@ -31,6 +56,7 @@
 #define ESTIMATOR_DIMS 4
 #endif
 #define RNG_PAIRS (RNG_PHILOX && ESTIMATOR_DIMS <= 2)
+#endif
 
 /* W consecutive queries starting at i (batch kernels). */
 inline Params load_params(const global real_t *P, ulong stride, ulong i)
@@ -74,6 +100,8 @@ inline void store_dir(vec3 v, global real_t *D, ulong stride, ulong i)
     VSTORE(v.z, D + 2 * stride + i);
 }
 
+#if KERNELS == KERNELS_BATCH
+
 /* ---- batch kernels: work-item g handles queries [g W, g W + W); n is padded to a multiple of W ---- */
 
 __kernel void eval_batch(const global real_t *P, const global real_t *WI, const global real_t *WO,
@@ -108,18 +136,9 @@ __kernel void sample_batch(const global real_t *P, const global real_t *WO, cons
     VSTORE(s.pdf, pdf + i);
 }
 
-/* Uniform numbers from the library's generators, 4 per query (for tests and users). */
-__kernel void random_batch(const ulong n, const uint point, const uint stream, const uint seed_lo,
-                           const uint seed_hi, global real_t *U)
-{
-    ulong i = get_global_id(0) * W;
-    if (i >= n) return;
-    rand4 u = RNG((uintN)(uint)i + LANE_IDS, point, stream, seed_lo, seed_hi);
-    VSTORE(u.u0, U + i);
-    VSTORE(u.u1, U + n + i);
-    VSTORE(u.u2, U + 2 * n + i);
-    VSTORE(u.u3, U + 3 * n + i);
-}
+#endif /* KERNELS_BATCH */
+
+#if KERNELS == KERNELS_ALBEDO
 
 /* ---- directional albedo ---- */
 
@@ -206,3 +225,7 @@ __kernel void albedo_blocks(const global real_t *P, const global real_t *WO, con
         out[2 * (CHANNELS * g + ch) + 1] = HSUM(sum2[ch]);
     }
 }
+
+#endif /* KERNELS_ALBEDO */
+
+#endif /* a model's kernels */
