@@ -17,18 +17,30 @@ import numpy as np
 from numpy.polynomial.legendre import leggauss
 from scipy import stats as sps
 
-def assert_close(got, ref, rtol, atol=0.0, what=""):
-    """|got - ref| <= rtol |ref| + atol everywhere (NaN fails); the message shows the 5 worst."""
+def assert_close(got, ref, rtol, atol=0.0, what="", allow_zero=None, context=None):
+    """|got - ref| <= rtol |ref| + atol everywhere (NaN fails; rtol and atol may be arrays); where
+    ``allow_zero`` is true, got == 0 passes as well. The message shows the 5 worst values, with
+    the entries of ``context`` (name -> array whose leading axes are the values' shape) at each."""
     got, ref = np.asarray(got, float), np.asarray(ref, float)
+    shape = np.broadcast_shapes(got.shape, ref.shape)
+    got, ref = np.broadcast_to(got, shape).ravel(), np.broadcast_to(ref, shape).ravel()
     err = np.abs(got - ref)
-    tol = rtol * np.abs(ref) + atol
+    tol = np.broadcast_to(rtol * np.abs(ref) + atol, got.shape)
     bad = ~(err <= tol)
-    if np.any(bad):
-        i = np.argsort(-(err / np.maximum(tol, 1e-300)).ravel())[:5]
-        raise AssertionError(f"{what}: {bad.sum()} of {bad.size} outside tolerance; worst: "
-                             + "; ".join(f"got {got.ravel()[j]:.9g} ref {ref.ravel()[j]:.9g} "
-                                         f"tol {np.broadcast_to(tol, got.shape).ravel()[j]:.3g}"
-                                         for j in i))
+    if allow_zero is not None:
+        bad &= ~(np.broadcast_to(allow_zero, shape).ravel() & (got == 0))
+    if not bad.any():
+        return
+    idx = np.nonzero(bad)[0]
+    worst = idx[np.argsort(-np.nan_to_num(err[idx] / np.maximum(tol[idx], 1e-300), nan=np.inf))][:5]
+    lines = [f"{what}: {idx.size} of {got.size} values outside tolerance; worst:"]
+    for i in worst:
+        extra = "" if context is None else " " + "; ".join(
+            f"{k}={np.round(np.asarray(v)[np.unravel_index(i, shape)], 8).tolist()}"
+            for k, v in context.items())
+        lines.append(f"  [{i}] got {got[i]:.9g} ref {ref[i]:.9g} rel {err[i] / max(abs(ref[i]), 1e-300):.3g}"
+                     f" tol {tol[i]:.3g}{extra}")
+    raise AssertionError("\n".join(lines))
 
 
 EPS32 = float(np.finfo(np.float32).eps) / 2       # unit roundoff, 2^-24

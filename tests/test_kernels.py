@@ -49,26 +49,7 @@ def random_params(cfg, rng, n, log_alpha=(-3, 1)):
     return kw, S.alphas(kw)
 
 
-def assert_close(got, ref, rtol, atol, allow_zero=None, what="", context=None):
-    """|got - ref| <= rtol |ref| + atol elementwise (rtol may be an array); where allow_zero is
-    true, got == 0 is accepted as well. The message lists the worst offenders."""
-    got = np.asarray(got, float)
-    ref = np.asarray(ref, float)
-    err = np.abs(got - ref)
-    tol = rtol * np.abs(ref) + atol
-    bad = ~(err <= tol)
-    if allow_zero is not None:
-        bad &= ~(allow_zero & (got == 0))
-    if bad.any():
-        idx = np.nonzero(bad)[0]
-        worst = idx[np.argsort(-(err[idx] / np.maximum(tol[idx] if np.ndim(tol) else tol, 1e-300)))][:5]
-        lines = [f"{what}: {idx.size} of {got.size} values out of tolerance"]
-        for i in worst:
-            extra = "" if context is None else " " + "; ".join(
-                f"{k}={np.round(np.asarray(v)[i], 8).tolist()}" for k, v in context.items())
-            lines.append(f"  [{i}] got {got[i]!r} ref {ref[i]!r} rel {err[i] / max(abs(ref[i]), 1e-300):.3g}"
-                         f" tol {float(np.broadcast_to(tol, got.shape)[i]):.3g}{extra}")
-        raise AssertionError("\n".join(lines))
+from stats import assert_close
 
 
 # ---------------------------------------------------------------------------------------------
@@ -96,8 +77,8 @@ def test_eval_pdf_match_reference(cfg, precision, model_cache):
     rtol = S.cond_rtol(base, eps, wi, wo, ax, ay)
     flush = (e >= cut - 0.01) if cfg["name"] == "beckmann" else None
     ctx = {"wi": wi, "wo": wo, "alpha_x": ax, "alpha_y": ay}
-    assert_close(f, f_ref, rtol, atol, flush, "eval", ctx)
-    assert_close(p, p_ref, rtol, atol, flush, "pdf", ctx)
+    assert_close(f, f_ref, rtol, atol, allow_zero=flush, what="eval", context=ctx)
+    assert_close(p, p_ref, rtol, atol, allow_zero=flush, what="pdf", context=ctx)
     below = wi[:, 2] <= 0
     assert below.any() and np.all(f[below] == 0) and np.all(p[below] == 0)
 
@@ -126,8 +107,8 @@ def test_reciprocity(cfg, precision, model_cache):
     b = m.eval(wo, wi)
     _, woh = S.slope_exponent(wi, wo, ax, ay)
     rtol = S.cond_rtol(128 * eps, eps, wi, wo, ax, ay) + 8 * eps / woh ** 2
-    assert_close(a, b, rtol, PREC[precision][3], None, "f(wi,wo) vs f(wo,wi)",
-                 {"wi": wi, "wo": wo, "alpha_x": ax, "alpha_y": ay})
+    assert_close(a, b, rtol, PREC[precision][3], what="f(wi,wo) vs f(wo,wi)",
+                 context={"wi": wi, "wo": wo, "alpha_x": ax, "alpha_y": ay})
 
 
 # ---------------------------------------------------------------------------------------------
@@ -165,11 +146,11 @@ def test_sample_weight_and_pdf_consistent(cfg, precision, model_cache):
     f2 = m.eval(wi, wo)[up]
     ctx = {"wi": wi[up], "wo": wo[up], "alpha_x": ax[up], "alpha_y": ay[up]}
     rtol_p = S.cond_rtol(base, eps, wi[up], wo[up], ax[up], ay[up], amplify=True)
-    assert_close(pdf[up], p2, rtol_p, atol, None, "sample pdf vs pdf kernel", ctx)
+    assert_close(pdf[up], p2, rtol_p, atol, what="sample pdf vs pdf kernel", context=ctx)
     rtol_w = S.weight_rtol(base, eps, wi[up], wo[up], ax[up], ay[up])
     with np.errstate(divide="ignore", invalid="ignore"):
         w2 = f2.astype(float) * wi[up, 2] / p2.astype(float)
-    assert_close(weight[up], w2, rtol_w, atol, None, "weight vs f cos / pdf", ctx)
+    assert_close(weight[up], w2, rtol_w, atol, what="weight vs f cos / pdf", context=ctx)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -215,8 +196,10 @@ def test_single_matches_double(cfg, model_cache):
     flush = None
     if cfg["name"] == "beckmann":
         flush = S.slope_exponent(wi, wo, ax, ay)[0] >= 85 - 0.01
-    assert_close(ms.eval(wi, wo), md.eval(wi, wo), rtol, 1e-36, flush, "eval single vs double", ctx)
-    assert_close(ms.pdf(wo, wi), md.pdf(wo, wi), rtol, 1e-36, flush, "pdf single vs double", ctx)
+    assert_close(ms.eval(wi, wo), md.eval(wi, wo), rtol, 1e-36, allow_zero=flush,
+                 what="eval single vs double", context=ctx)
+    assert_close(ms.pdf(wo, wi), md.pdf(wo, wi), rtol, 1e-36, allow_zero=flush,
+                 what="pdf single vs double", context=ctx)
 
     wo = S.round_to(np.float32, sample_directions(rng, n, min_mu=0.01))[0]
     u = exact_float32_u(rng, n)
@@ -236,11 +219,11 @@ def test_single_matches_double(cfg, model_cache):
     p2 = md.pdf(wo, ws)[up]
     f2 = md.eval(ws, wo)[up]
     assert_close(ps[up], p2, S.cond_rtol(1e-4, eps, ws[up], wo[up], ax[up], ay[up], amplify=True),
-                 1e-36, None, "single sample pdf vs double pdf at the same wi", ctx)
+                 1e-36, what="single sample pdf vs double pdf at the same wi", context=ctx)
     with np.errstate(divide="ignore", invalid="ignore"):
         w2 = f2 * ws[up, 2] / p2
     assert_close(vs[up], w2, S.weight_rtol(1e-4, eps, ws[up], wo[up], ax[up], ay[up]), 1e-36,
-                 None, "single sample weight vs double f cos / pdf at the same wi", ctx)
+                 what="single sample weight vs double f cos / pdf at the same wi", context=ctx)
 
 
 WIDTH_CONFIGS = [pytest.param(c, id=S.config_id(c)) for c in (
@@ -276,8 +259,8 @@ def test_widths_agree(cfg, precision, width, model_cache):
     wi, wo = S.round_to(dtype, wi, wo)
     rtol = S.cond_rtol(16 * eps, eps, wi, wo, ax, ay)
     ctx = {"wi": wi, "wo": wo}
-    assert_close(b.eval(wi, wo), a.eval(wi, wo), rtol, PREC[precision][3], None, f"eval w{width}", ctx)
-    assert_close(b.pdf(wo, wi), a.pdf(wo, wi), rtol, PREC[precision][3], None, f"pdf w{width}", ctx)
+    assert_close(b.eval(wi, wo), a.eval(wi, wo), rtol, PREC[precision][3], what=f"eval w{width}", context=ctx)
+    assert_close(b.pdf(wo, wi), a.pdf(wo, wi), rtol, PREC[precision][3], what=f"pdf w{width}", context=ctx)
     wo = S.round_to(dtype, sample_directions(rng, n, 0.01))[0]
     u = exact_float32_u(rng, n)
     sa, sb = a.sample(wo, u), b.sample(wo, u)
@@ -290,9 +273,9 @@ def test_widths_agree(cfg, precision, width, model_cache):
     e_i = np.maximum(16 * eps, dw[up])
     ctx = {"wi": wa[up], "wo": wo[up], "u": u[up]}
     assert_close(sb[2][up], sa[2][up], S.cond_rtol(16 * eps, e_i, wa[up], wo[up], ax[up], ay[up], amplify=True),
-                 PREC[precision][3], None, f"sample pdf w{width}", ctx)
+                 PREC[precision][3], what=f"sample pdf w{width}", context=ctx)
     assert_close(sb[1][up], sa[1][up], S.weight_rtol(16 * eps, e_i, wa[up], wo[up], ax[up], ay[up]),
-                 PREC[precision][3], None, f"sample weight w{width}", ctx)
+                 PREC[precision][3], what=f"sample weight w{width}", context=ctx)
     for qmc in (False, True):
         np.testing.assert_array_equal(a.random(1001, seed=3, point=2, qmc=qmc),
                                       b.random(1001, seed=3, point=2, qmc=qmc))
