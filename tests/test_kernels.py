@@ -21,6 +21,7 @@ import pytest
 import clbrdf
 import stats as S
 from clbrdf import reference as R
+from stats import assert_close
 
 PREC = {  # dtype, unit roundoff, base rtol, absolute floor, Beckmann flush exponent
     "single": (np.float32, S.EPS32, 1e-4, 1e-36, 85.0),
@@ -48,8 +49,6 @@ def random_params(cfg, rng, n, log_alpha=(-3, 1)):
     kw = S.model_kwargs(cfg, alpha=ax, alpha_y=ay, **over)
     return kw, S.alphas(kw)
 
-
-from stats import assert_close
 
 
 # ---------------------------------------------------------------------------------------------
@@ -454,6 +453,50 @@ def test_sample_u_just_below_one_is_finite(name, kw, model_cache):
     u = np.array([[1 - 1e-9, 0.3, 0.5, 0.5], [0.3, 1 - 1e-9, 0.5, 0.5]])
     wi, w, p = m.sample(wo, u)
     assert np.all(np.isfinite(wi)), wi
+
+
+def beckmann_visible_slope_cdf(s, cos_t):
+    """CDF of the x-slope s of unit Beckmann normals visible from a direction at cos_t in the x-z
+    plane (Heitz & d'Eon 2014 section 4): (1 + erf s + tan/sqrt(pi) exp(-s^2)) / (the same at
+    s = cot), in float64 with SciPy's erf."""
+    from scipy.special import erf
+    tan_t = np.sqrt(1 - cos_t ** 2) / cos_t
+    cot_t = cos_t / np.sqrt(1 - cos_t ** 2)
+    c = lambda x: 1 + erf(x) + tan_t / np.sqrt(np.pi) * np.exp(-x * x)
+    return c(s) / c(cot_t)
+
+
+def test_beckmann_vndf_inverts_visible_slope_cdf(model_cache):
+    """Double precision: the sampled half vector's slopes, mapped back to the unit-roughness frame
+    of wo, satisfy CDF(s_x) = u0 and erf(s_y) = 2 u1 - 1 to 1e-12 (the Newton inversion has
+    converged) plus the cost of the round trip wi -> h -> slopes. u in [1e-6, 1 - 1e-6], incidence
+    down to cos theta = 1e-3, alpha_x != alpha_y."""
+    rng = np.random.default_rng(77)
+    n = 20000
+    ax, ay = 0.3, 0.07
+    m = model_cache("beckmann", precision="double", alpha_x=ax, alpha_y=ay, sampler="vndf",
+                    masking="none")
+    wo = sample_directions(rng, n, min_mu=1e-3)
+    u = np.concatenate([rng.uniform(1e-6, 1 - 1e-6, (n, 2)), np.full((n, 2), 0.5)], axis=1)
+    u[: n // 4, 0] = 10 ** rng.uniform(-6, -1, n // 4)            # both tails of u0
+    u[n // 4: n // 2, 0] = 1 - 10 ** rng.uniform(-6, -1, n // 4)
+    wi, _, _ = m.sample(wo, u)
+    h = wi + wo
+    h /= np.linalg.norm(h, axis=1, keepdims=True)
+    ws = wo * [ax, ay, 1]
+    ws /= np.linalg.norm(ws, axis=1, keepdims=True)
+    r = np.hypot(ws[:, 0], ws[:, 1])
+    cp, sp = ws[:, 0] / r, ws[:, 1] / r
+    tx, ty = -h[:, 0] / h[:, 2] / ax, -h[:, 1] / h[:, 2] / ay      # unit-roughness slopes
+    sx, sy = cp * tx + sp * ty, -sp * tx + cp * ty                   # in wo's azimuth frame
+    # the round trip wi -> h -> slope costs eps (1 + t^2) / (wo.h alpha) in the slope (wi + wo
+    # has length 2 wo.h); both CDFs have slope derivative <= 1.2 here
+    woh = np.sum(wo * h, axis=1)
+    atol = 1e-12 + 16 * S.EPS64 * (1 + tx * tx + ty * ty) / (woh * min(ax, ay))
+    from scipy.special import erf
+    ctx = {"wo": wo, "u": u}
+    assert_close(beckmann_visible_slope_cdf(sx, ws[:, 2]), u[:, 0], 0, atol, what="CDF(s_x) vs u0", context=ctx)
+    assert_close(erf(sy), 2 * u[:, 1] - 1, 0, atol, what="erf(s_y) vs 2 u1 - 1", context=ctx)
 
 
 def test_sample_with_own_generator_large_batch(model_cache):
