@@ -16,7 +16,7 @@ from .device import Device, DeviceError
 from .spec import Config
 
 _INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$', re.M)
-BLOCK = 1024          # samples per work-item in the albedo kernel
+BLOCK = 1024          # samples per work-item in the albedo kernel, at most
 
 
 def kernel_dir() -> Path:
@@ -70,7 +70,7 @@ def program_source(cfg: Config, precision: str, width: int, *, part: str = "batc
         return "\n".join(lines) + "\n" + "\n".join(body)
     lines += [f"#define MODEL {cfg.prefix}", f"#define CHANNELS {cfg.channels}"]
     if part == "albedo":
-        lines += [f"#define BLOCK {BLOCK}", f"#define ESTIMATOR ESTIMATOR_{estimator.upper()}",
+        lines += [f"#define ESTIMATOR ESTIMATOR_{estimator.upper()}",
                   f"#define RNG rand_{rng}", f"#define RNG_PHILOX {int(rng == 'philox')}"]
     lines += [f"#define {k} {v}" for k, v in cfg.defines]
     # X(name, row) for scalars, XS(name, first row) for spectral parameters (CHANNELS rows)

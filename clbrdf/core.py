@@ -254,7 +254,10 @@ def albedo(m: Model, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 <
     npts = math.prod(shape)
     streams = QMC_STREAMS if qmc else 1
     per_stream = -(-samples // streams)
-    bps = -(-per_stream // build.BLOCK)          # blocks per stream
+    # block length: BLOCK, or fewer (a multiple of 2 W: a Philox call serves two samples) when a
+    # stream is shorter, so that 16 QMC streams of 128 samples do not run 16 blocks of 1024
+    block_len = min(build.BLOCK, -(-per_stream // (2 * m.width)) * 2 * m.width)
+    bps = -(-per_stream // block_len)            # blocks per stream
     blocks = streams * bps
     s_theta = np.sqrt(np.maximum(0.0, 1 - mu * mu))
     wo = [s_theta * np.cos(phi), s_theta * np.sin(phi), mu]
@@ -263,7 +266,7 @@ def albedo(m: Model, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 <
     ctx, q = m.device.context, m.device.queue
     mf = cl.mem_flags
     # points per launch: about 2^27 samples, at least one point
-    chunk = max(1, min(npts, LAUNCH_SAMPLES // (blocks * build.BLOCK) or 1))
+    chunk = max(1, min(npts, LAUNCH_SAMPLES // (blocks * block_len) or 1))
     nch = m.channels
     sums = np.empty((npts, streams, bps, nch, 2), dtype=np.float64)
     t0 = time.perf_counter()
@@ -281,7 +284,8 @@ def albedo(m: Model, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 <
         out = np.empty(k * blocks * nch * 2, dtype=m.dtype)
         bo = cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes)
         kernel(q, *_ndrange(k * blocks, m.device), bp, bw, np.uint64(k), np.uint64(start),
-                           np.uint32(blocks), np.uint32(per_stream), lo, hi, np.uint32(bps), bo)
+                           np.uint32(blocks), np.uint32(per_stream), lo, hi, np.uint32(bps),
+                           np.uint32(block_len), bo)
         cl.enqueue_copy(q, out, bo)
         q.finish()
         sums[start:stop] = out.reshape(k, streams, bps, nch, 2)

@@ -10,7 +10,6 @@
  *   MODEL       the model's function prefix (lambert, microfacet, ...)
  *   ESTIMATOR   ESTIMATOR_UNIFORM | ESTIMATOR_COSINE | ESTIMATOR_BRDF | ESTIMATOR_MIS (albedo)
  *   RNG         rand_philox | rand_sobol (RNG_PHILOX 1 for the first; albedo and random)
- *   BLOCK       samples per work-item in the albedo kernel (a multiple of W)
  * and includes the model header after common.h, rng.h, warp.h (see clbrdf/build.py).
  * A program holds one part only, so it compiles no code its caller does not run.
  *
@@ -169,14 +168,15 @@ inline spec albedo_estimate(const Params *p, vec3 wo, rand4 u)
 #endif
 }
 
-/* Work-item g: point g / blocks, block g % blocks, samples [block BLOCK, block BLOCK + BLOCK) of
- * the point's stream; samples at or past `samples` count as 0. Writes the block's sum and sum of
- * squares per channel (out[2 (CHANNELS g + c)], out[2 (CHANNELS g + c) + 1]); the host adds
- * blocks in a fixed order. */
+/* Work-item g: point g / blocks, block g % blocks, samples [b L, b L + L) of the point's stream,
+ * b the block's place in its stream and L = block_len (a multiple of 2 W, at most 1024, chosen
+ * by the host from the sample count so that small counts waste no lanes); samples at or past
+ * `samples` count as 0. Writes the block's sum and sum of squares per channel
+ * (out[2 (CHANNELS g + c)], out[2 (CHANNELS g + c) + 1]); the host adds blocks in a fixed order. */
 __kernel void albedo_blocks(const global real_t *P, const global real_t *WO, const ulong npoints,
                             const ulong point0, const uint blocks, const uint samples,
                             const uint seed_lo, const uint seed_hi, const uint blocks_per_stream,
-                            global real_t *out)
+                            const uint block_len, global real_t *out)
 {
     ulong g = get_global_id(0);
     ulong local_point = g / blocks;
@@ -186,14 +186,14 @@ __kernel void albedo_blocks(const global real_t *P, const global real_t *WO, con
     Params p = splat_params(P, npoints, local_point);
     vec3 wo = v3((realN)WO[local_point], (realN)WO[npoints + local_point], (realN)WO[2 * npoints + local_point]);
     uint stream = block / blocks_per_stream;
-    uint first = (block % blocks_per_stream) * BLOCK;
+    uint first = (block % blocks_per_stream) * block_len;
     realN sum[CHANNELS], sum2[CHANNELS];
     for (int c = 0; c < CHANNELS; ++c)
         sum[c] = sum2[c] = 0;
 #if RNG_PAIRS
     /* The estimate needs two numbers: one Philox call serves samples 2c and 2c + 1
      * (words 0-1 and 2-3 of counter c), halving the generator's cost. */
-    for (uint k = 0; k < BLOCK; k += 2 * W) {
+    for (uint k = 0; k < block_len; k += 2 * W) {
         uintN c = (uintN)((first + k) >> 1) + LANE_IDS;
         uint4N r = {c, (uintN)point, (uintN)stream, (uintN)0};
         r = philox4x32_10(r, seed_lo, seed_hi);
@@ -208,7 +208,7 @@ __kernel void albedo_blocks(const global real_t *P, const global real_t *WO, con
         }
     }
 #else
-    for (uint k = 0; k < BLOCK; k += W) {
+    for (uint k = 0; k < block_len; k += W) {
         uintN idx = (uintN)(first + k) + LANE_IDS;
         rand4 u = RNG(idx, point, stream, seed_lo, seed_hi);
         spec e = albedo_estimate(&p, wo, u);

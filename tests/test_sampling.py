@@ -281,7 +281,16 @@ def test_albedo_stderr_is_honest(estimator, qmc, model_cache):
 # ---------------------------------------------------------------------------------------------
 # the albedo kernel draws the documented random stream
 
-def test_albedo_uses_documented_philox_stream_pairs(model_cache):
+def uniform_hemisphere_estimates(kw, wo, u0, u1):
+    """f cos / (1 / 2 pi) at the uniform-hemisphere directions of u0, u1 (reference f)."""
+    s = np.sqrt((1 - u0) * (1 + u0))
+    wi = np.stack([s * np.cos(2 * np.pi * u1), s * np.sin(2 * np.pi * u1), u0], -1)
+    return R.eval("ggx", wi, wo, **S.ref_kwargs(kw)) * wi[:, 2] * 2 * np.pi
+
+
+# 4097: blocks of 1024 and an odd count (the last pair half used); 45: one short block
+@pytest.mark.parametrize("samples", [4097, 45])
+def test_albedo_uses_documented_philox_stream_pairs(samples, model_cache):
     """An estimator that needs two numbers (uniform hemisphere) takes them two samples per Philox
     call: counter (c, point, stream 0, 0), words (0, 1) for sample 2c and (2, 3) for sample 2c+1
     (kernels/integrators.cl). Recomputing the estimate in Python from that stream (directions from
@@ -290,7 +299,7 @@ def test_albedo_uses_documented_philox_stream_pairs(model_cache):
     kw = {"alpha": 0.5, "masking": "correlated", "fresnel": "one", "sampler": "vndf"}
     m = model_cache("ggx", **kw)
     mu = np.array([0.3, 0.8, 0.55])            # points 0, 1, 2
-    samples, seed = 4097, (7 << 32) + 123      # odd count: the last pair is half used
+    seed = (7 << 32) + 123
     r = clbrdf.albedo(m, mu, estimator="uniform", samples=samples, seed=seed)
     for point, x in enumerate(mu):
         c = np.arange((samples + 1) // 2)
@@ -298,15 +307,13 @@ def test_albedo_uses_documented_philox_stream_pairs(model_cache):
         u = [S.bits_to_unit(x_, "single").astype(np.float64) for x_ in w]
         u0 = np.stack([u[0], u[2]], 1).reshape(-1)[:samples]
         u1 = np.stack([u[1], u[3]], 1).reshape(-1)[:samples]
-        wi = np.stack([np.sqrt((1 - u0) * (1 + u0)) * np.cos(2 * np.pi * u1),
-                       np.sqrt((1 - u0) * (1 + u0)) * np.sin(2 * np.pi * u1), u0], -1)
-        est = R.eval("ggx", wi, S.direction(x), **S.ref_kwargs(kw)) * wi[:, 2] * 2 * np.pi
-        e_py = est.mean()
+        e_py = uniform_hemisphere_estimates(kw, S.direction(x), u0, u1).mean()
         assert abs(r.albedo[point] - e_py) <= 1e-4 * e_py, (point, r.albedo[point], e_py)
         assert 1e-4 * e_py < 0.05 * r.stderr[point]       # the check can tell streams apart
 
 
-def test_albedo_uses_documented_philox_stream_mis(model_cache):
+@pytest.mark.parametrize("samples", [3000, 77])
+def test_albedo_uses_documented_philox_stream_mis(samples, model_cache):
     """A four-number estimator (MIS) takes one Philox call per sample: counter (sample, point, 0,
     0), words 0-3 = u0..u3. Rebuilt in Python: the BRDF sample from the sample kernel with those
     u, the cosine sample from u0, u1, the technique chosen by u3 < 1/2; must match to 1e-4."""
@@ -314,7 +321,7 @@ def test_albedo_uses_documented_philox_stream_mis(model_cache):
           "kd": 0.4, "sampler": "ndf"}
     m = model_cache("ggx", **kw)
     mu, phi = np.array([0.4, 0.9]), 0.6
-    samples, seed = 3000, 99
+    seed = 99
     r = clbrdf.albedo(m, mu, phi, estimator="mis", samples=samples, seed=seed)
     for point, x in enumerate(mu):
         wo = S.direction(x, phi)
@@ -335,6 +342,29 @@ def test_albedo_uses_documented_philox_stream_mis(model_cache):
         e_py = np.where(u[:, 3] < 0.5, vb, vc).mean()
         assert abs(r.albedo[point] - e_py) <= 1e-4 * e_py, (point, r.albedo[point], e_py)
         assert 1e-4 * e_py < 0.05 * r.stderr[point]
+
+
+# 16 scrambles of 1100 (a block of 1024 and a partial one) and of 40 (one short block each)
+@pytest.mark.parametrize("samples", [16 * 1100, 16 * 40])
+def test_albedo_uses_documented_sobol_streams(samples, model_cache):
+    """With qmc the estimate is the mean of 16 scrambles (streams 0-15) of samples / 16 Sobol
+    points each, the points those of Model.random(n, seed, point, stream, qmc=True); the stderr is
+    the scrambles' spread over sqrt(16). Rebuilt in Python for the uniform-hemisphere estimator:
+    albedo to 1e-4 relative, stderr to 1e-3 (it is a difference of nearly equal numbers)."""
+    kw = {"alpha": 0.1, "masking": "separable", "fresnel": "one", "sampler": "vndf"}
+    m = model_cache("ggx", **kw)
+    mu = np.array([0.25, 0.7])
+    seed, n = 11, samples // 16
+    r = clbrdf.albedo(m, mu, estimator="uniform", samples=samples, seed=seed, qmc=True)
+    for point, x in enumerate(mu):
+        means = []
+        for stream in range(16):
+            u = m.random(n, seed=seed, point=point, stream=stream, qmc=True).astype(np.float64)
+            means.append(uniform_hemisphere_estimates(kw, S.direction(x), u[:, 0], u[:, 1]).mean())
+        e_py, se_py = np.mean(means), np.std(means, ddof=1) / 4
+        assert abs(r.albedo[point] - e_py) <= 1e-4 * e_py, (point, r.albedo[point], e_py)
+        assert abs(r.stderr[point] - se_py) <= 1e-3 * se_py, (point, r.stderr[point], se_py)
+        assert 1e-4 * e_py < 0.05 * se_py             # the check can tell point sets apart
 
 
 # ---------------------------------------------------------------------------------------------
