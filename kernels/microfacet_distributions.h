@@ -87,8 +87,8 @@ inline vec3 beckmann_sample_ndf(Microfacet m, realN u0, realN u1)
     return slope_to_normal(m.ax * r * c, m.ay * r * s);
 }
 
-/* Newton steps from the fitted first guess: |CDF(s) - u| <= 1e-9 after 3 steps and at rounding
- * level (5e-16) after 5, for cos theta in [1e-6, 1] and u in [1e-15, 1 - 1e-15] (float64
+/* Newton steps from the fitted first guess: |CDF(s) - u| about 1e-9 after 3 steps and at rounding
+ * level (1e-15) after 5, for cos theta in [1e-6, 1] and u in [1e-15, 1 - 1e-15] (float64
  * emulation); single needs 3 (one more for margin). test_beckmann_vndf_inverts_visible_slope_cdf
  * fails with 3 in double. */
 #ifndef BECKMANN_NEWTON_STEPS

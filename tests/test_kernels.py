@@ -17,6 +17,7 @@ Tolerances (stats.py explains the conditioning terms):
 """
 import numpy as np
 import pytest
+from scipy.special import erf
 
 import clbrdf
 import stats as S
@@ -48,7 +49,6 @@ def random_params(cfg, rng, n, log_alpha=(-3, 1)):
         over["k"] = rng.uniform(0.5, 5, n)
     kw = S.model_kwargs(cfg, alpha=ax, alpha_y=ay, **over)
     return kw, S.alphas(kw)
-
 
 
 # ---------------------------------------------------------------------------------------------
@@ -459,7 +459,6 @@ def beckmann_visible_slope_cdf(s, cos_t):
     """CDF of the x-slope s of unit Beckmann normals visible from a direction at cos_t in the x-z
     plane (Heitz & d'Eon 2014 section 4): (1 + erf s + tan/sqrt(pi) exp(-s^2)) / (the same at
     s = cot), in float64 with SciPy's erf."""
-    from scipy.special import erf
     tan_t = np.sqrt(1 - cos_t ** 2) / cos_t
     cot_t = cos_t / np.sqrt(1 - cos_t ** 2)
     c = lambda x: 1 + erf(x) + tan_t / np.sqrt(np.pi) * np.exp(-x * x)
@@ -493,7 +492,6 @@ def test_beckmann_vndf_inverts_visible_slope_cdf(model_cache):
     # has length 2 wo.h); both CDFs have slope derivative <= 1.2 here
     woh = np.sum(wo * h, axis=1)
     atol = 1e-12 + 16 * S.EPS64 * (1 + tx * tx + ty * ty) / (woh * min(ax, ay))
-    from scipy.special import erf
     ctx = {"wo": wo, "u": u}
     assert_close(beckmann_visible_slope_cdf(sx, ws[:, 2]), u[:, 0], 0, atol, what="CDF(s_x) vs u0", context=ctx)
     assert_close(erf(sy), 2 * u[:, 1] - 1, 0, atol, what="erf(s_y) vs 2 u1 - 1", context=ctx)
