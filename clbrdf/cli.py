@@ -361,7 +361,7 @@ def cmd_table(args) -> int:
             if name in params:
                 raise ParameterError(f"parameter {name} is given both as --axis and --param")
         try:
-            check_mu(values) if name == "mu" else spec.param(name).check(values)
+            check_mu(values, args.precision) if name == "mu" else spec.param(name).check(values)
         except ParameterError as e:
             raise ParameterError(f"--axis {text}: {_clean(e)}") from None
         axes[name], spacing[name] = values, sp

@@ -11,15 +11,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import build
+from . import build, runtime
 from .device import Device, get_device
 from .models import get_spec
 from .spec import ParameterError, check_directions, check_mu, finite_or_raise
 
 PRECISIONS = ("single", "double")
 ESTIMATORS = ("uniform", "cosine", "brdf", "mis")
-QMC_STREAMS = 16       # independent scrambles behind a quasi-Monte Carlo error estimate
-LAUNCH_SAMPLES = 1 << 27   # samples per kernel launch (at least one point); results do not depend on it
+QMC_STREAMS = runtime.QMC_STREAMS
 
 
 def _dtype(precision: str):
@@ -58,8 +57,8 @@ class Model:
         self.config, self.params = self.spec.configure(channels=channels or 1, **params)
         self.precision = _check_choice("precision", precision, PRECISIONS)
         self.device: Device = get_device(device)
-        self.width = width or self.device.default_width(precision)
-        if self.width not in (1, 2, 4, 8, 16):
+        self.width = self.device.default_width(precision) if width is None else width
+        if isinstance(self.width, bool) or self.width not in (1, 2, 4, 8, 16):
             raise ParameterError(f"width={self.width!r} is not valid: choose one of 1, 2, 4, 8, 16")
         self.dtype = _dtype(precision)
 
@@ -128,7 +127,7 @@ class Model:
         host_out = [np.empty((k, n_pad), dtype=self.dtype) for k in outputs]
         out_bufs = [cl.Buffer(ctx, mf.WRITE_ONLY, h.nbytes) for h in host_out]
         prog = self.program(part="batch")
-        _kernel(prog, kernel)(q, *_ndrange(n_pad // w, self.device), *bufs, np.uint64(n_pad), *out_bufs)
+        runtime.kernel(prog, kernel)(q, *runtime.ndrange(n_pad // w, self.device), *bufs, np.uint64(n_pad), *out_bufs)
         for h, b in zip(host_out, out_bufs):
             cl.enqueue_copy(q, h, b)
         q.finish()
@@ -184,23 +183,19 @@ class Model:
         """(n, 4) uniform numbers of sample indices 0..n-1 from the kernels' generator
         (Philox4x32-10, or Owen-scrambled Sobol with ``qmc``)."""
         import pyopencl as cl
+        n = runtime.check_int("n", n, 0, 2**32 - 1)
+        point = runtime.check_int("point", point, 0, 2**32 - 1)
+        stream = runtime.check_int("stream", stream, 0, 2**32 - 1)
         w = self.width
         n_pad = max(w, -(-n // w) * w)
         prog = self.program(part="random", rng="sobol" if qmc else "philox")
         buf = cl.Buffer(self.device.context, cl.mem_flags.WRITE_ONLY, 4 * n_pad * np.dtype(self.dtype).itemsize)
-        lo, hi = _seed_words(seed)
-        _kernel(prog, "random_batch")(self.device.queue, *_ndrange(n_pad // w, self.device), np.uint64(n_pad), np.uint32(point),
+        lo, hi = runtime.seed_words(seed)
+        runtime.kernel(prog, "random_batch")(self.device.queue, *runtime.ndrange(n_pad // w, self.device), np.uint64(n_pad), np.uint32(point),
                           np.uint32(stream), lo, hi, buf)
         out = np.empty((4, n_pad), dtype=self.dtype)
         cl.enqueue_copy(self.device.queue, out, buf)
         return out[:, :n].T.copy()
-
-
-def _seed_words(seed: int):
-    if not (0 <= int(seed) < 2**64):
-        raise ParameterError(f"seed={seed!r} is out of range: valid seed is in [0, 2^64)")
-    s = int(seed)
-    return np.uint32(s & 0xFFFFFFFF), np.uint32(s >> 32)
 
 
 def model(name: str, **kw) -> Model:
@@ -240,118 +235,23 @@ def albedo(m: Model, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 <
     ``mis`` (one-sample balance heuristic of brdf and cosine). ``qmc``: Owen-scrambled Sobol points
     in 16 independent scrambles (the error estimate is their spread) instead of Philox.
     The result is bit-identical for the same arguments, device kind and width, whatever the
-    chunking or work-group size.
+    chunking or work-group size. Host memory does not grow with ``samples``.
     """
-    import pyopencl as cl
     _check_choice("estimator", estimator, ESTIMATORS)
-    samples = int(samples)
-    if not (2 <= samples <= 2**32 - 1):
-        raise ParameterError(f"samples={samples} is out of range: valid samples is in [2, 2^32)")
-    mu = check_mu(mu)
+    samples = runtime.check_int("samples", samples, 2, 2**32 - 1, "[2, 2^32)")
+    runtime.seed_words(seed)
+    mu = check_mu(mu, m.precision)
     phi = np.asarray(phi, dtype=np.float64)
     finite_or_raise("phi", phi)
     shape = m._shape(np.zeros(np.broadcast_shapes(mu.shape, phi.shape) + (3,)))
-    npts = math.prod(shape)
-    streams = QMC_STREAMS if qmc else 1
-    per_stream = -(-samples // streams)
-    # block length: BLOCK, or fewer (a multiple of 2 W: a Philox call serves two samples) when a
-    # stream is shorter, so that 16 QMC streams of 128 samples do not run 16 blocks of 1024
-    block_len = min(build.BLOCK, -(-per_stream // (2 * m.width)) * 2 * m.width)
-    bps = -(-per_stream // block_len)            # blocks per stream
-    blocks = streams * bps
     s_theta = np.sqrt(np.maximum(0.0, 1 - mu * mu))
     wo = [s_theta * np.cos(phi), s_theta * np.sin(phi), mu]
-    kernel = _kernel(m.program(part="albedo", estimator=estimator, rng="sobol" if qmc else "philox"), "albedo_blocks")
-    lo, hi = _seed_words(seed)
-    ctx, q = m.device.context, m.device.queue
-    mf = cl.mem_flags
-    # points per launch: about 2^27 samples, at least one point
-    chunk = max(1, min(npts, LAUNCH_SAMPLES // (blocks * block_len) or 1))
-    nch = m.channels
-    sums = np.empty((npts, streams, bps, nch, 2), dtype=np.float64)
-    t0 = time.perf_counter()
-    bar = _progress(npts, progress)
-    params_full = m._param_block(shape, npts)
-    wo_full = m._soa(shape, wo, npts)
-    for start in range(0, npts, chunk):
-        stop = min(npts, start + chunk)
-        k = stop - start
-        P = np.ascontiguousarray(params_full[:, start:stop])
-        WO = np.ascontiguousarray(wo_full[:, start:stop])
-        bp = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=P) if P.size else \
-            cl.Buffer(ctx, mf.READ_ONLY, 8)
-        bw = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=WO)
-        out = np.empty(k * blocks * nch * 2, dtype=m.dtype)
-        bo = cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes)
-        kernel(q, *_ndrange(k * blocks, m.device), bp, bw, np.uint64(k), np.uint64(start),
-                           np.uint32(blocks), np.uint32(per_stream), lo, hi, np.uint32(bps),
-                           np.uint32(block_len), bo)
-        cl.enqueue_copy(q, out, bo)
-        q.finish()
-        sums[start:stop] = out.reshape(k, streams, bps, nch, 2)
-        bar.update(k)
-    bar.close()
-    seconds = time.perf_counter() - t0
-    s = sums.sum(axis=2)                            # (npts, streams, channels, 2), fixed order
-    if qmc:
-        means = s[..., 0] / per_stream
-        est = means.mean(axis=1)
-        err = means.std(axis=1, ddof=1) / math.sqrt(streams)
-    else:
-        n = per_stream
-        est = s[:, 0, :, 0] / n
-        var = np.maximum(s[:, 0, :, 1] / n - est * est, 0.0) * n / (n - 1)
-        err = np.sqrt(var / n)
-    cshape = shape if nch == 1 else shape + (nch,)
+    est, err, plan, seconds = runtime.run_albedo(m, shape, wo, estimator=estimator, samples=samples,
+                                                 seed=seed, qmc=qmc, progress=progress)
+    cshape = shape if m.channels == 1 else shape + (m.channels,)
     return AlbedoResult(est.reshape(cshape), err.reshape(cshape), np.broadcast_to(mu, shape),
-                        estimator, per_stream * streams, qmc, int(seed), m.precision, seconds,
+                        estimator, plan.samples, qmc, int(seed), m.precision, seconds,
                         m.describe())
-
-
-_KERNELS: dict = {}
-
-LOCAL_SIZE = 64     # work-items per work-group, at most
-
-
-def _ndrange(items: int, device: Device):
-    """(global size, local size) for ``items`` work-items; the kernels ignore the padding items.
-
-    The local size is explicit: left to itself PoCL makes work-groups of up to 4096 items whose
-    contexts live on an 8 MB thread stack, which overflows for models with many parameters
-    (an RGB Holzschuch-Pacanowski launch crashed). On a CPU it is 1 or LOCAL_SIZE and nothing in
-    between: PoCL compiles a kernel once per local size (about 0.1 s at W = 16), and 1 keeps
-    every compute unit busy in small launches. On a GPU: a power of two up to LOCAL_SIZE, smaller
-    for small launches so that every compute unit gets work groups."""
-    cu = device.info.compute_units
-    if not device.info.is_gpu:
-        return ((-(-items // LOCAL_SIZE) * LOCAL_SIZE,), (LOCAL_SIZE,)) \
-            if items >= LOCAL_SIZE * 4 * cu else ((items,), (1,))
-    local = 1
-    while local < LOCAL_SIZE and local * 2 * 4 * cu <= items:
-        local *= 2
-    return (-(-items // local) * local,), (local,)
-
-
-def _kernel(prog, name: str):
-    """One kernel object per (program, name): pyopencl creates a new one on every attribute access."""
-    key = (id(prog), name)
-    if key not in _KERNELS:
-        import pyopencl as cl
-        _KERNELS[key] = (prog, cl.Kernel(prog, name))
-    return _KERNELS[key][1]
-
-
-def _progress(total: int, enabled: bool):
-    try:
-        from tqdm import tqdm
-    except ImportError:
-        enabled = False
-    if not enabled:
-        class _Null:
-            def update(self, n): pass
-            def close(self): pass
-        return _Null()
-    return tqdm(total=total, unit="pt", delay=2.0, leave=False)
 
 
 GAUSS_NODES = 32

@@ -180,12 +180,18 @@ def check_directions(name: str, w: np.ndarray, tol: float = 1e-4, allow_below: b
     return w
 
 
-def check_mu(mu) -> np.ndarray:
+# The smallest accepted mu = cos(theta_o) per precision. Below the single-precision bound
+# 1 - mu^2 is 1 to the last bit and grazing lobes are no longer resolved; the conformance battery
+# (tests/test_conformance.py) checks every model down to these values.
+MU_MIN = {"single": 1e-6, "double": 1e-12}
+
+
+def check_mu(mu, precision: str = "double") -> np.ndarray:
     mu = np.asarray(mu, dtype=np.float64)
-    bad = ~np.isfinite(mu) | (mu <= 0) | (mu > 1)
+    lo = MU_MIN[precision]
+    bad = ~np.isfinite(mu) | (mu < lo) | (mu > 1)
     if np.any(bad):
         v = mu.reshape(-1)[np.argmax(bad.reshape(-1))]
-        raise ParameterError(f"mu={float(v)!r} is out of range: valid mu = cos(theta_o) is in (0, 1] "
-                             f"(a direction above the horizon)")
+        raise ParameterError(f"mu={float(v)!r} is out of range: valid mu = cos(theta_o) is in "
+                             f"[{lo:g}, 1] in {precision} precision (a direction above the horizon)")
     return mu
-

@@ -45,6 +45,7 @@ typedef ulong ulongN;
 #define VLOAD(p) (*(p))
 #define VSTORE(v, p) (*(p) = (v))
 #define HSUM(v) (v)
+#define FIRST_LANE(v) (v)
 #define TO_MASK(m) (m)
 /* scalar comparisons give int even for doubles, which select() rejects: use ?: */
 #define sel(a, b, m) ((m) ? (b) : (a))
@@ -87,6 +88,9 @@ typedef CAT(ulong, W) ulongN;
 #define HSUM(v) (HSUM4((v).lo) + HSUM4((v).hi))
 #elif W == 16
 #define HSUM(v) (HSUM8((v).lo) + HSUM8((v).hi))
+#endif
+#if W > 1
+#define FIRST_LANE(v) ((v).s0)
 #endif
 #define HSUM4(v) (((v).s0 + (v).s1) + ((v).s2 + (v).s3))
 #define HSUM8(v) (HSUM4((v).lo) + HSUM4((v).hi))

@@ -168,19 +168,22 @@ inline spec albedo_estimate(const Params *p, vec3 wo, rand4 u)
 #endif
 }
 
-/* Work-item g: point g / blocks, block g % blocks, samples [b L, b L + L) of the point's stream,
- * b the block's place in its stream and L = block_len (a multiple of 2 W, at most 1024, chosen
- * by the host from the sample count so that small counts waste no lanes); samples at or past
- * `samples` count as 0. Writes the block's sum and sum of squares per channel
- * (out[2 (CHANNELS g + c)], out[2 (CHANNELS g + c) + 1]); the host adds blocks in a fixed order. */
+/* Work-item g of a launch: point g / launch_blocks, block b = block0 + g % launch_blocks of the
+ * point's `blocks` (stream b / blocks_per_stream), samples [j L, j L + L) of that stream with
+ * j = b % blocks_per_stream and L = block_len (a multiple of 2 W, at most 1024, chosen by the host
+ * from the sample count so that small counts waste no lanes); samples at or past `samples` are
+ * left out. Per channel the block writes its shift K (the block's first estimate, lane 0) and the
+ * shifted sums D = sum (e - K) and Q = sum (e - K)^2 at out[3 (CHANNELS g + c) + 0, 1, 2] = K, D, Q:
+ * shifted sums keep the variance exact in single precision where sum e^2 - (sum e)^2 / n cancels.
+ * The host combines blocks in double, in a fixed order (clbrdf/runtime.py). */
 __kernel void albedo_blocks(const global real_t *P, const global real_t *WO, const ulong npoints,
-                            const ulong point0, const uint blocks, const uint samples,
-                            const uint seed_lo, const uint seed_hi, const uint blocks_per_stream,
-                            const uint block_len, global real_t *out)
+                            const ulong point0, const uint block0, const uint launch_blocks,
+                            const uint samples, const uint seed_lo, const uint seed_hi,
+                            const uint blocks_per_stream, const uint block_len, global real_t *out)
 {
     ulong g = get_global_id(0);
-    ulong local_point = g / blocks;
-    uint block = (uint)(g % blocks);
+    ulong local_point = g / launch_blocks;
+    uint block = block0 + (uint)(g % launch_blocks);
     if (local_point >= npoints) return;
     uint point = (uint)(point0 + local_point);
     Params p = splat_params(P, npoints, local_point);
@@ -188,6 +191,7 @@ __kernel void albedo_blocks(const global real_t *P, const global real_t *WO, con
     uint stream = block / blocks_per_stream;
     uint first = (block % blocks_per_stream) * block_len;
     realN sum[CHANNELS], sum2[CHANNELS];
+    real_t shift[CHANNELS];
     for (int c = 0; c < CHANNELS; ++c)
         sum[c] = sum2[c] = 0;
 #if RNG_PAIRS
@@ -200,9 +204,12 @@ __kernel void albedo_blocks(const global real_t *P, const global real_t *WO, con
         rand4 ua = {bits_to_unit(r.c0), bits_to_unit(r.c1), (realN)0.5, (realN)0.5};
         rand4 ub = {bits_to_unit(r.c2), bits_to_unit(r.c3), (realN)0.5, (realN)0.5};
         spec ea = albedo_estimate(&p, wo, ua), eb = albedo_estimate(&p, wo, ub);
+        if (k == 0)
+            for (int ch = 0; ch < CHANNELS; ++ch)
+                shift[ch] = FIRST_LANE(ea.c[ch]);
         maskN ma = TO_MASK(2 * c < (uintN)samples), mb = TO_MASK(2 * c + 1 < (uintN)samples);
         for (int ch = 0; ch < CHANNELS; ++ch) {
-            realN va = sel((realN)0, ea.c[ch], ma), vb = sel((realN)0, eb.c[ch], mb);
+            realN va = sel((realN)0, ea.c[ch] - shift[ch], ma), vb = sel((realN)0, eb.c[ch] - shift[ch], mb);
             sum[ch] += va + vb;
             sum2[ch] += va * va + vb * vb;
         }
@@ -212,17 +219,21 @@ __kernel void albedo_blocks(const global real_t *P, const global real_t *WO, con
         uintN idx = (uintN)(first + k) + LANE_IDS;
         rand4 u = RNG(idx, point, stream, seed_lo, seed_hi);
         spec e = albedo_estimate(&p, wo, u);
+        if (k == 0)
+            for (int ch = 0; ch < CHANNELS; ++ch)
+                shift[ch] = FIRST_LANE(e.c[ch]);
         maskN m = TO_MASK(idx < (uintN)samples);
         for (int ch = 0; ch < CHANNELS; ++ch) {
-            realN v = sel((realN)0, e.c[ch], m);
+            realN v = sel((realN)0, e.c[ch] - shift[ch], m);
             sum[ch] += v;
             sum2[ch] += v * v;
         }
     }
 #endif
     for (int ch = 0; ch < CHANNELS; ++ch) {
-        out[2 * (CHANNELS * g + ch)] = HSUM(sum[ch]);
-        out[2 * (CHANNELS * g + ch) + 1] = HSUM(sum2[ch]);
+        out[3 * (CHANNELS * g + ch)] = shift[ch];
+        out[3 * (CHANNELS * g + ch) + 1] = HSUM(sum[ch]);
+        out[3 * (CHANNELS * g + ch) + 2] = HSUM(sum2[ch]);
     }
 }
 

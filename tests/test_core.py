@@ -140,14 +140,14 @@ def test_albedo_bit_identical_across_chunking_and_runs():
     a = clbrdf.albedo(m, 0.5, samples=50_000, seed=9)
     b = clbrdf.albedo(m, 0.5, samples=50_000, seed=9)
     np.testing.assert_array_equal(a.albedo, b.albedo)
-    # the same job split into launches of one point each (chunk size is internal: force it)
-    import clbrdf.core as core
-    old = core.LAUNCH_SAMPLES
-    core.LAUNCH_SAMPLES = 1
+    # the same job split into launches of one block each (launch size is internal: force it)
+    from clbrdf import runtime
+    old = runtime.LAUNCH_SAMPLES
+    runtime.LAUNCH_SAMPLES = 1
     try:
         c = clbrdf.albedo(m, 0.5, samples=50_000, seed=9)
     finally:
-        core.LAUNCH_SAMPLES = old
+        runtime.LAUNCH_SAMPLES = old
     np.testing.assert_array_equal(a.albedo, c.albedo)
     np.testing.assert_array_equal(a.stderr, c.stderr)
 

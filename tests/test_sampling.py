@@ -376,7 +376,7 @@ def test_albedo_bit_identical(estimator, qmc, model_cache, monkeypatch):
     """The albedo of point k uses the stream of point index k, its position in the flattened
     broadcast of (parameters, mu, phi) in one call (core.albedo: point0 + local index). So a
     prefix of the points, computed alone, must reproduce their values bit for bit; so must the
-    same call with every point in its own launch (LAUNCH_SAMPLES forced to 1), and a second run.
+    same call split into launches of one block, three blocks or about two points (runtime.LAUNCH_SAMPLES), and a second run.
     (An arbitrary subset cannot be reproduced: the API has no way to give its point indices.)"""
     kw = {"alpha": np.array([0.05, 0.3, 0.3, 0.6, 0.9, 0.9, 0.2]), "fresnel": "conductor", "kd": 0.2}
     m = model_cache("beckmann", **kw)
@@ -389,9 +389,11 @@ def test_albedo_bit_identical(estimator, qmc, model_cache, monkeypatch):
     part = clbrdf.albedo(head, 0.45, 0.3, **args)
     np.testing.assert_array_equal(part.albedo, full.albedo[:3])
     np.testing.assert_array_equal(part.stderr, full.stderr[:3])
-    monkeypatch.setattr(core, "LAUNCH_SAMPLES", 1)
-    one = clbrdf.albedo(m, 0.45, 0.3, **args)
-    np.testing.assert_array_equal(one.albedo, full.albedo)
-    np.testing.assert_array_equal(one.stderr, full.stderr)
+    from clbrdf import runtime
+    for cap in (1, 3 * 1024, 50_000):   # one block per launch; 3 blocks; about 2 points
+        monkeypatch.setattr(runtime, "LAUNCH_SAMPLES", cap)
+        one = clbrdf.albedo(m, 0.45, 0.3, **args)
+        np.testing.assert_array_equal(one.albedo, full.albedo)
+        np.testing.assert_array_equal(one.stderr, full.stderr)
     # equal parameters at points 1 and 2 (and 4, 5): different streams, different estimates
     assert full.albedo[1] != full.albedo[2] and full.albedo[4] != full.albedo[5]

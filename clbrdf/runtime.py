@@ -1,0 +1,212 @@
+"""The runtime under the public API: launch geometry, kernel objects, progress, and the albedo
+driver that streams blocks of samples through the device and reduces them on the host.
+
+Memory stays flat in the number of samples per point: the host keeps three numbers per point,
+stream and channel, whatever the sample count, and a point with many samples is split into
+several launches (about ``LAUNCH_SECONDS`` each) so that progress and Ctrl-C answer quickly.
+The result does not depend on how the work is split: blocks are combined in double precision
+in one fixed order (block index within its stream), by sequential sums.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from . import build
+from .device import Device
+from .spec import ParameterError
+
+QMC_STREAMS = 16          # independent scrambles behind a quasi-Monte Carlo error estimate
+LAUNCH_SAMPLES = 1 << 30  # samples per kernel launch, at most (at least one block)
+FIRST_LAUNCH = 1 << 20    # samples in the first launch; later ones are sized from its speed
+LAUNCH_SECONDS = 0.25     # target duration of one launch
+LOCAL_SIZE = 64           # work-items per work-group, at most
+
+_KERNELS: dict = {}
+
+
+def seed_words(seed) -> tuple[np.uint32, np.uint32]:
+    s = check_int("seed", seed, 0, 2**64 - 1, "[0, 2^64)")
+    return np.uint32(s & 0xFFFFFFFF), np.uint32(s >> 32)
+
+
+def check_int(name: str, value, lo: int, hi: int, text: str | None = None) -> int:
+    """An integer in [lo, hi]: 3 and 3.0 are accepted, 1.5, True, '3' and NaN are not."""
+    ok = isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
+    if not ok and isinstance(value, (float, np.floating)) and float(value).is_integer():
+        value, ok = int(value), True
+    rng = text or f"[{lo}, {hi}]"
+    if not ok:
+        raise ParameterError(f"{name}={value!r} is not valid: {name} must be an integer in {rng}")
+    if not lo <= int(value) <= hi:
+        raise ParameterError(f"{name}={int(value)} is out of range: valid {name} is in {rng}")
+    return int(value)
+
+
+def ndrange(items: int, device: Device):
+    """(global size, local size) for ``items`` work-items; the kernels ignore the padding items.
+
+    The local size is explicit: left to itself PoCL makes work-groups of up to 4096 items whose
+    contexts live on an 8 MB thread stack, which overflows for models with many parameters
+    (an RGB Holzschuch-Pacanowski launch crashed). On a CPU it is 1 or LOCAL_SIZE and nothing in
+    between: PoCL compiles a kernel once per local size (about 0.1 s at W = 16), and 1 keeps
+    every compute unit busy in small launches. On a GPU: a power of two up to LOCAL_SIZE, smaller
+    for small launches so that every compute unit gets work groups."""
+    cu = device.info.compute_units
+    if not device.info.is_gpu:
+        return ((-(-items // LOCAL_SIZE) * LOCAL_SIZE,), (LOCAL_SIZE,)) \
+            if items >= LOCAL_SIZE * 4 * cu else ((items,), (1,))
+    local = 1
+    while local < LOCAL_SIZE and local * 2 * 4 * cu <= items:
+        local *= 2
+    return (-(-items // local) * local,), (local,)
+
+
+def kernel(prog, name: str):
+    """One kernel object per (program, name): pyopencl creates a new one on every attribute access."""
+    key = (id(prog), name)
+    if key not in _KERNELS:
+        import pyopencl as cl
+        _KERNELS[key] = (prog, cl.Kernel(prog, name))
+    return _KERNELS[key][1]
+
+
+def progress_bar(total: int, enabled: bool, unit: str = "sample"):
+    try:
+        from tqdm import tqdm
+    except ImportError:
+        enabled = False
+    if not enabled:
+        class _Null:
+            def update(self, n): pass
+            def close(self): pass
+        return _Null()
+    return tqdm(total=total, unit=unit, unit_scale=True, delay=2.0, leave=False)
+
+
+class AlbedoPlan:
+    """How the samples of one point are cut: ``streams`` independent streams (16 scrambles with
+    QMC) of ``per_stream`` samples, each in ``bps`` blocks of ``block_len`` (the last may be
+    partial). The block length is BLOCK, or fewer (a multiple of 2 W: a Philox call serves two
+    samples) when a stream is shorter, so that 16 QMC streams of 128 samples do not run 16 blocks
+    of 1024."""
+
+    def __init__(self, samples: int, qmc: bool, width: int):
+        self.streams = QMC_STREAMS if qmc else 1
+        self.per_stream = -(-samples // self.streams)
+        if self.per_stream < 2:
+            raise ParameterError(f"samples={samples} is out of range: each of the {self.streams} "
+                                 f"streams needs at least 2 samples")
+        self.block_len = min(build.BLOCK, -(-self.per_stream // (2 * width)) * 2 * width)
+        self.bps = -(-self.per_stream // self.block_len)
+        self.blocks = self.streams * self.bps
+
+    def counts(self, j0: int, nb: int) -> np.ndarray:
+        """Samples in blocks j0 .. j0 + nb - 1 of a stream (only the last block may be short)."""
+        j = np.arange(j0, j0 + nb, dtype=np.float64)
+        return np.clip(self.per_stream - j * self.block_len, 0, self.block_len)
+
+    @property
+    def samples(self) -> int:
+        return self.per_stream * self.streams
+
+
+class _Reducer:
+    """Per (point, stream, channel): the shift C (the first estimate of the stream), and the
+    sequential sums S = sum (e - C) and T = sum (e - C)^2, from the blocks' K, D, Q (see
+    albedo_blocks in kernels/integrators.cl):
+        sum over a block of (e - C)   = D + n (K - C)
+        sum over a block of (e - C)^2 = Q + 2 (K - C) D + n (K - C)^2."""
+
+    def __init__(self, npts, plan: AlbedoPlan, nch):
+        shape = (npts, plan.streams, nch)
+        self.plan = plan
+        self.C = np.zeros(shape)
+        self.S = np.zeros(shape)
+        self.T = np.zeros(shape)
+
+    def add(self, points: slice, stream: slice, first_block: int, kdq: np.ndarray):
+        """kdq: (points, streams, blocks, channels, 3) for blocks first_block.. of these streams."""
+        kdq = kdq.astype(np.float64)
+        K, D, Q = kdq[..., 0], kdq[..., 1], kdq[..., 2]
+        if first_block == 0:
+            self.C[points, stream] = K[:, :, 0]
+        n = self.plan.counts(first_block, K.shape[2])[None, None, :, None]
+        dk = K - self.C[points, stream][:, :, None]
+        for acc, t in ((self.S, D + n * dk), (self.T, Q + 2 * dk * D + n * dk * dk)):
+            seq = np.concatenate([acc[points, stream][:, :, None], t], axis=2)
+            acc[points, stream] = np.cumsum(seq, axis=2)[:, :, -1]    # sequential: split-independent
+
+    def result(self, qmc: bool):
+        n = self.plan.per_stream
+        means = self.C + self.S / n                      # (points, streams, channels)
+        if qmc:
+            return means.mean(axis=1), means.std(axis=1, ddof=1) / math.sqrt(self.plan.streams)
+        var = np.maximum(self.T[:, 0] - self.S[:, 0] ** 2 / n, 0.0) / (n - 1)
+        return means[:, 0], np.sqrt(var / n)
+
+
+def run_albedo(m, shape, wo_rows, *, estimator: str, samples: int, seed: int, qmc: bool,
+               progress: bool):
+    """E and its standard error at every point of ``shape`` (model parameters broadcast with the
+    outgoing directions ``wo_rows`` = [x, y, z]). Returns (E, stderr) of shape (points, channels),
+    the plan and the seconds spent."""
+    import pyopencl as cl
+    plan = AlbedoPlan(samples, qmc, m.width)
+    npts = math.prod(shape)
+    nch = m.channels
+    prog = m.program(part="albedo", estimator=estimator, rng="sobol" if qmc else "philox")
+    kern = kernel(prog, "albedo_blocks")
+    lo, hi = seed_words(seed)
+    ctx, q = m.device.context, m.device.queue
+    mf = cl.mem_flags
+    params_full = m._param_block(shape, npts)
+    wo_full = m._soa(shape, wo_rows, npts)
+    red = _Reducer(npts, plan, nch)
+    bar = progress_bar(npts * plan.samples, progress)
+    budget = min(FIRST_LAUNCH, LAUNCH_SAMPLES)
+    t0 = time.perf_counter()
+    point, block = 0, 0            # next block to launch (block in the point's 0 .. blocks - 1)
+    while point < npts:
+        budget_blocks = max(1, budget // plan.block_len)
+        if block == 0 and budget_blocks >= plan.blocks:      # whole points
+            k = min(npts - point, budget_blocks // plan.blocks)
+            nb = plan.blocks
+        else:                                                # part of one point's stream
+            k = 1
+            nb = min(budget_blocks, plan.bps - block % plan.bps)
+        P = np.ascontiguousarray(params_full[:, point:point + k])
+        WO = np.ascontiguousarray(wo_full[:, point:point + k])
+        bp = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=P) if P.size else \
+            cl.Buffer(ctx, mf.READ_ONLY, 8)
+        bw = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=WO)
+        out = np.empty(k * nb * nch * 3, dtype=m.dtype)
+        bo = cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes)
+        tl = time.perf_counter()
+        kern(q, *ndrange(k * nb, m.device), bp, bw, np.uint64(k), np.uint64(point),
+             np.uint32(block), np.uint32(nb), np.uint32(plan.per_stream), lo, hi,
+             np.uint32(plan.bps), np.uint32(plan.block_len), bo)
+        cl.enqueue_copy(q, out, bo)
+        q.finish()
+        dt = time.perf_counter() - tl
+        pts = slice(point, point + k)
+        if nb == plan.blocks:
+            red.add(pts, slice(None), 0, out.reshape(k, plan.streams, plan.bps, nch, 3))
+            point += k
+            done = k * plan.samples
+        else:
+            s, j0 = divmod(block, plan.bps)
+            red.add(pts, slice(s, s + 1), j0, out.reshape(1, 1, nb, nch, 3))
+            block += nb
+            done = int(plan.counts(j0, nb).sum())
+            if block == plan.blocks:
+                point, block = point + 1, 0
+        bar.update(done)
+        launched = k * nb * plan.block_len
+        rate = launched / max(dt, 1e-6)
+        budget = int(min(LAUNCH_SAMPLES, max(plan.block_len, rate * LAUNCH_SECONDS)))
+    bar.close()
+    est, err = red.result(qmc)
+    return est, err, plan, time.perf_counter() - t0
