@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import threading
 import math
 import os
 import re
@@ -153,7 +154,7 @@ def _usable(device) -> None:
 def _model(name, args, params):
     from .core import Model
     m = Model(name, precision=getattr(args, "precision", "single"), device=args.device,
-              preset=getattr(args, "preset", None), **params)
+              width=getattr(args, "width", None), preset=getattr(args, "preset", None), **params)
     _usable(m.device)
     return m
 
@@ -342,12 +343,10 @@ def cmd_table(args) -> int:
     spec = _spec(args.model)
     params = parse_params(spec, args.param)
     out = Path(args.out)
-    if out.suffix.lower() not in tables.FORMATS:
-        raise ParameterError(f"--out {args.out!r}: unknown output suffix {out.suffix!r}: valid "
-                             f"suffixes are {', '.join(tables.FORMATS)}")
-    parent = out.parent if str(out.parent) else Path(".")
-    if not parent.is_dir():
-        raise ParameterError(f"--out {args.out!r}: directory {str(parent)!r} does not exist")
+    try:
+        tables.check_output(out)
+    except ValueError as e:
+        raise ParameterError(f"--out {args.out!r}: {e}") from None
     from .spec import check_mu
     axes, spacing = {}, {}
     for text in args.axis:
@@ -366,25 +365,16 @@ def cmd_table(args) -> int:
             raise ParameterError(f"--axis {text}: {_clean(e)}") from None
         axes[name], spacing[name] = values, sp
     if "mu" not in axes:
-        raise ParameterError("a table needs a mu axis: --axis mu=START:STOP:COUNT with mu in (0, 1]")
+        raise ParameterError("a table needs a mu axis: --axis mu=START:STOP:COUNT with mu in [1e-6, 1] (single) or [1e-12, 1] (double)")
     # fail before computing on bad parameters or no device
     _model(spec.name, args, params)
     t0 = time.perf_counter()
     table = albedo_table(spec.name, axes, samples=args.samples, estimator=args.estimator,
                          seed=args.seed, qmc=args.qmc, precision=args.precision,
-                         device=args.device, progress=True, preset=args.preset, **params)
+                         device=args.device, width=args.width, progress=True, preset=args.preset,
+                         spacing=spacing, command=" ".join(["clbrdf"] + [_quote(a) for a in args.argv]),
+                         **params)
     seconds = time.perf_counter() - t0
-    meta = json.loads(table["metadata"])
-    # every fixed parameter, defaults included, and the options
-    first = _model(spec.name, args, {**params, **{a: v[0] for a, v in axes.items() if a != "mu"}})
-    meta["fixed"] = {**{k: v.tolist() for k, v in first.params.items() if k not in axes},
-                     **first.options}
-    if args.preset:
-        meta["preset"] = {"material": first.preset.material, "source": first.preset.source,
-                          "attribution": first.preset.attribution}
-    meta["spacing"] = spacing
-    meta["command"] = " ".join(["clbrdf"] + [_quote(a) for a in args.argv])
-    table["metadata"] = json.dumps(meta)
     written = tables.save_table(table, out)
     print(tables.summary(table, seconds, written))
     return 0
@@ -431,6 +421,9 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--seed", type=int, default=0, metavar="S", help="random seed (default 0)")
         p.add_argument("--precision", choices=PRECISIONS, default="single",
                        help="kernel arithmetic (default single)")
+        p.add_argument("--width", type=int, choices=(1, 2, 4, 8, 16), default=None,
+                       help="lanes per work-item (default: 16 single / 8 double on a CPU, 1 on a "
+                            "GPU, or CLBRDF_WIDTH); results are bit-identical per device and width")
 
     p = sub.add_parser("devices", parents=[dev], help="list OpenCL devices",
                        description="Every OpenCL platform and device, whether its compiler works, "
@@ -462,7 +455,8 @@ def build_parser() -> argparse.ArgumentParser:
                                    "over wi, for wo with cos(theta_o) = mu and azimuth phi.")
     model_arg(p)
     p.add_argument("--mu", required=True, metavar="LIST",
-                   help="comma-separated cos(theta_o) values in (0, 1], e.g. 0.1,0.5,1")
+                   help="comma-separated cos(theta_o) values in [1e-6, 1] (single) or [1e-12, 1] "
+                        "(double), e.g. 0.1,0.5,1")
     p.add_argument("--phi", default="0", metavar="P", help="azimuth of wo in radians (default 0)")
     sampling_args(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -506,8 +500,19 @@ def _join_negative(argv):
     return out
 
 
+class Terminated(BaseException):
+    """SIGTERM, raised in the main thread so that staged files are discarded on the way out."""
+
+
+def _on_sigterm(signum, frame):
+    raise Terminated()
+
+
 def main(argv=None) -> int:
+    import signal
     argv = list(sys.argv[1:] if argv is None else argv)
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _on_sigterm)
     parser = build_parser()
     args = parser.parse_args(_join_negative(argv))
     args.argv = argv
@@ -527,6 +532,9 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print("clbrdf: interrupted", file=sys.stderr)
         return 130
+    except Terminated:
+        print("clbrdf: terminated", file=sys.stderr)
+        return 143
     except Exception as e:
         if os.environ.get("CLBRDF_DEBUG"):
             raise

@@ -71,6 +71,11 @@ class Model:
         return self.config.channels
 
     @property
+    def anisotropic(self) -> bool:
+        """Whether E(wo) may depend on the azimuth of wo (see ModelSpec.anisotropic)."""
+        return self.spec.anisotropic(self.config, self.params)
+
+    @property
     def options(self) -> dict:
         return dict(self.config.options)
 
@@ -255,57 +260,139 @@ def albedo(m: Model, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 <
 
 
 GAUSS_NODES = 32
+PHI_NODES = 16      # azimuths of wo in averages of anisotropic models (periodic trapezoid rule)
 
 
-def albedo_avg(m: Model, *, nodes: int = GAUSS_NODES, **kw):
-    """E_avg = 2 integral_0^1 E(mu) mu dmu by Gauss-Legendre in mu; returns (E_avg, stderr)
-    broadcast over the model's parameters. The error estimate is the Monte Carlo error only."""
+def _avg_rule(nodes: int, phi_nodes: int):
+    """Nodes (mu, phi) and weights of E_avg = (1 / pi) int_0^2pi int_0^1 E(mu, phi) mu dmu dphi:
+    Gauss-Legendre in mu; in phi the periodic trapezoid rule (spectrally accurate for a smooth
+    periodic E), or phi = 0 alone for an isotropic model."""
+    nodes = runtime.check_int("nodes", nodes, 1, 1024)
+    phi_nodes = runtime.check_int("phi_nodes", phi_nodes, 1, 4096)
     x, wgt = np.polynomial.legendre.leggauss(nodes)
     mu = 0.5 * (x + 1)
-    wgt = 0.5 * wgt
+    phi = 2 * np.pi * np.arange(phi_nodes) / phi_nodes
+    c = (wgt * mu)[:, None] * np.full(phi_nodes, 1.0 / phi_nodes)[None, :]   # sums to 1
+    return mu, phi, c
+
+
+def albedo_avg(m: Model, *, nodes: int = GAUSS_NODES, phi_nodes: int | None = None, **kw):
+    """E_avg = (1/pi) integral E(wo) cos(theta_o) dwo = 2 integral_0^1 E(mu) mu dmu for an
+    isotropic model; returns (E_avg, stderr) broadcast over the model's parameters. Gauss-Legendre
+    in mu (``nodes``); where E depends on the azimuth of wo (anisotropic models, Schlick's
+    scratches: ``m.anisotropic``) also the mean over ``phi_nodes`` azimuths (default PHI_NODES).
+    The error estimate is the Monte Carlo error only."""
+    if phi_nodes is None:
+        phi_nodes = PHI_NODES if m.anisotropic else 1
+    mu, phi, c = _avg_rule(nodes, phi_nodes)
     pshape = m._shape()
-    r = albedo(m, mu.reshape((nodes,) + (1,) * len(pshape)), **kw)
-    c = (2 * wgt * mu).reshape((nodes,) + (1,) * (r.albedo.ndim - 1))
-    return (c * r.albedo).sum(axis=0), np.sqrt(((c * r.stderr) ** 2).sum(axis=0))
+    lead = (len(mu), len(phi)) + (1,) * len(pshape)
+    r = albedo(m, mu.reshape((-1, 1) + (1,) * len(pshape)), phi.reshape((1, -1) + (1,) * len(pshape)),
+               **kw)
+    cw = c.reshape(lead + (1,) * (r.albedo.ndim - len(lead)))
+    return (cw * r.albedo).sum(axis=(0, 1)), np.sqrt(((cw * r.stderr) ** 2).sum(axis=(0, 1)))
+
+
+def _table_axes(spec, axes) -> dict:
+    """Validated axes: a non-empty dict of non-empty 1-D arrays of finite numbers, named mu, phi
+    or a numeric parameter of the model, with a mu axis."""
+    if not isinstance(axes, dict) or not axes:
+        raise ParameterError(f"axes={axes!r} is not valid: give a dict of axis name -> 1-D values "
+                             f"with at least a mu axis")
+    out = {}
+    for k, v in axes.items():
+        if k not in ("mu", "phi") and not any(p.name == k for p in spec.params):
+            opts = [o.name for o in spec.options]
+            why = "an option: give it as a fixed argument" if k in opts else "not a parameter"
+            raise ParameterError(f"axis {k!r} of model {spec.name} is {why}; axes are mu, phi and "
+                                 f"the parameters {', '.join(p.name for p in spec.params)}")
+        try:
+            a = np.asarray(v, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ParameterError(f"axis {k}={v!r} is not valid: values must be numbers") from None
+        if a.ndim != 1 or a.size == 0:
+            raise ParameterError(f"axis {k} must be a non-empty 1-D list of numbers, got shape "
+                                 f"{a.shape}")
+        finite_or_raise(f"axis {k}", a)
+        out[k] = a
+    if "mu" not in out:
+        raise ParameterError("a table needs a mu axis (--axis mu=START:STOP:COUNT)")
+    return out
+
+
+def _runtime_environment() -> dict:
+    """Environment variables that change a result's bits or the device used."""
+    import os
+    keys = ("CLBRDF_DEVICE", "CLBRDF_WIDTH", "CLBRDF_BUILD_OPTIONS", "POCL_CPU_MAX_CU_COUNT",
+            "POCL_DEVICES", "POCL_AFFINITY", "OCL_ICD_VENDORS", "OCL_ICD_FILENAMES")
+    return {k: os.environ[k] for k in keys if k in os.environ}
 
 
 def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: str = "brdf",
                  seed: int = 0, qmc: bool = False, precision: str = "single", device=None,
-                 progress: bool = False, avg_nodes: int = GAUSS_NODES, **fixed):
-    """A table of E over the grid of ``axes`` (an ordered dict name -> 1-D array; ``mu`` and any
-    model parameter), with fixed parameters and options ``fixed``. Returns a dict with ``E``,
-    ``E_stderr``, one array per axis, ``E_avg`` and ``E_avg_stderr`` over the other axes when
-    there is a ``mu`` axis, and ``metadata`` (a JSON string)."""
+                 width: int | None = None, progress: bool = False, avg_nodes: int = GAUSS_NODES,
+                 phi_nodes: int | None = None, spacing: dict | None = None,
+                 command: str | None = None, **fixed):
+    """A table of E over the grid of ``axes`` (an ordered dict name -> 1-D array: ``mu``, ``phi``
+    (azimuth of wo, default 0) and any numeric model parameter, per-channel ones included), with
+    fixed parameters, options and ``preset`` in ``fixed``. Returns a dict with ``E``,
+    ``E_stderr`` (axes in the given order, then ``channel`` for an RGB model), one array per axis,
+    ``E_avg`` and ``E_avg_stderr`` over the axes other than mu and phi (averaged over the azimuth
+    for anisotropic models, see ``albedo_avg``), and ``metadata`` (a JSON string, everything the
+    bits depend on)."""
     from . import __version__
+    spec = get_spec(name)
+    axes = _table_axes(spec, axes)
     names = list(axes)
-    grids = np.meshgrid(*[np.asarray(axes[k], dtype=np.float64) for k in names], indexing="ij")
-    grid = dict(zip(names, grids))
-    mu = grid.pop("mu", None)
-    m = Model(name, precision=precision, device=device, **fixed, **grid)
+    for k in names:
+        if k in fixed:
+            raise ParameterError(f"parameter {k} is given both as an axis and as a fixed value")
+    spacing = {k: (spacing or {}).get(k, "lin") for k in names}
+    pnames = [k for k in names if k not in ("mu", "phi")]
+    # a model at the first grid point tells which parameters are per channel
+    probe = Model(name, precision=precision, device=device, width=width, **fixed,
+                  **{k: axes[k][0] for k in pnames})
+    grids = dict(zip(names, np.meshgrid(*[axes[k] for k in names], indexing="ij")))
+    spectral = set(probe.config.spectral) if probe.channels > 1 else set()
+
+    def param_grid(g):      # a per-channel axis: one value for all channels (trailing axis 1)
+        return {k: (g[k][..., None] if k in spectral else g[k]) for k in pnames}
+    m = Model(name, precision=precision, device=device, width=width, **fixed, **param_grid(grids))
     t0 = time.perf_counter()
-    out = {k: np.asarray(axes[k], dtype=np.float64) for k in names}
-    if mu is None:
-        raise ParameterError("a table needs a mu axis (--axis mu=START:STOP:COUNT)")
-    r = albedo(m, mu, samples=samples, estimator=estimator, seed=seed, qmc=qmc, progress=progress)
+    out = {k: axes[k] for k in names}
+    r = albedo(m, grids["mu"], grids.get("phi", 0.0), samples=samples, estimator=estimator,
+               seed=seed, qmc=qmc, progress=progress)
     out["E"], out["E_stderr"] = r.albedo, r.stderr
+    all_names = names + (["channel"] if m.channels > 1 else [])
     if m.channels > 1:                  # RGB: a last axis "channel" (0, 1, 2 = R, G, B)
         out["channel"] = np.arange(m.channels, dtype=np.float64)
-        names = names + ["channel"]
-    # E_avg over the other axes: the model at the first mu index
-    other = {k: v.take(0, axis=names.index("mu")) for k, v in grid.items()}
-    ma = Model(name, precision=precision, device=device, **fixed, **other)
-    out["E_avg"], out["E_avg_stderr"] = albedo_avg(ma, nodes=avg_nodes, samples=samples,
-                                                   estimator=estimator, seed=seed, qmc=qmc,
-                                                   progress=progress)
-    fixed_all = {k: (v.item() if v.ndim == 0 else v.tolist()) for k, v in ma.params.items()
+    # E_avg over the parameter axes: the model at the first mu (and phi) index
+    sub = dict(grids)
+    for i in sorted((names.index(k) for k in ("mu", "phi") if k in names), reverse=True):
+        sub = {n: v.take(0, axis=i) for n, v in sub.items()}
+    ma = Model(name, precision=precision, device=device, width=width, **fixed, **param_grid(sub))
+    out["E_avg"], out["E_avg_stderr"] = albedo_avg(ma, nodes=avg_nodes, phi_nodes=phi_nodes,
+                                                   samples=samples, estimator=estimator,
+                                                   seed=seed, qmc=qmc, progress=progress)
+    n_phi = (PHI_NODES if ma.anisotropic else 1) if phi_nodes is None else phi_nodes
+    fixed_all = {k: (v.item() if v.ndim == 0 else v.tolist()) for k, v in probe.params.items()
                  if k not in names}
-    meta = {"model": name, "fixed": fixed_all, "axes": names,
-            "options": m.options, "estimator": estimator, "qmc": qmc, "samples": r.samples,
-            "seed": seed, "precision": precision, "device": m.device.info.name,
-            "version": __version__, "seconds": time.perf_counter() - t0,
-            "E_avg": f"2 int_0^1 E(mu) mu dmu, Gauss-Legendre with {avg_nodes} nodes in mu"}
+    dev = m.device.info
+    meta = {"model": name, "fixed": {**fixed_all, **m.options}, "options": m.options,
+            "axes": all_names, "spacing": spacing, "channels": m.channels,
+            "estimator": estimator, "qmc": qmc, "samples": r.samples, "seed": int(seed),
+            "precision": precision, "width": m.width, "device": dev.name,
+            "platform": dev.platform, "driver": dev.driver, "version": __version__,
+            "environment": _runtime_environment(), "seconds": time.perf_counter() - t0,
+            "E": "E(mu, phi) = int f(wi, wo) cos(theta_i) dwi" + ("" if "phi" in names else
+                                                                    " at phi = 0"),
+            "E_avg": f"(1/pi) int E(wo) cos(theta_o) dwo: Gauss-Legendre with {avg_nodes} nodes "
+                     f"in mu" + (f" x {n_phi} azimuths (trapezoid)" if n_phi > 1 else
+                                 " (isotropic: phi = 0)")}
     if m.preset is not None:
         meta["preset"] = {"material": m.preset.material, "source": m.preset.source,
                           "attribution": m.preset.attribution}
+    if command is not None:
+        meta["command"] = command
     out["metadata"] = json.dumps(meta)
     return out

@@ -32,6 +32,7 @@ class DeviceInfo:
     is_gpu: bool
     has_fp64: bool
     compute_units: int
+    driver: str = ""
 
     @property
     def selector(self) -> str:
@@ -61,7 +62,8 @@ def _all_devices():
         for di, d in enumerate(devs):
             out.append((DeviceInfo(pi, di, d.name.strip(), f"{p.name.strip()} ({p.version.strip()})",
                                    bool(d.type & cl.device_type.GPU),
-                                   "cl_khr_fp64" in d.extensions, d.max_compute_units), d))
+                                   "cl_khr_fp64" in d.extensions, d.max_compute_units,
+                                   d.driver_version.strip()), d))
     return out
 
 
@@ -135,10 +137,11 @@ class Device:
     def default_width(self, precision: str) -> int:
         env = os.environ.get("CLBRDF_WIDTH")
         if env:
-            w = int(env)
-            if w not in (1, 2, 4, 8, 16):
-                raise ValueError(f"CLBRDF_WIDTH={env!r} is not one of 1, 2, 4, 8, 16")
-            return w
+            from .spec import ParameterError
+            if env.strip() not in ("1", "2", "4", "8", "16"):
+                raise ParameterError(f"environment variable CLBRDF_WIDTH={env!r} is not valid: "
+                                     f"choose one of 1, 2, 4, 8, 16 (lanes per work-item)")
+            return int(env)
         if self.info.is_gpu:
             return 1
         # CPU: fill a 512-bit register (16 floats, 8 doubles); PoCL does not vectorise scalar code

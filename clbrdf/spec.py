@@ -87,6 +87,12 @@ class ModelSpec:
     configure_fn: Callable | None = None
     aliases: dict[str, str] = field(default_factory=dict)
     notes: str = ""                  # how options follow from the parameters given, etc.
+    # (defines, parameter values) -> whether E(wo) may depend on the azimuth of wo; None: never.
+    # Averages over wo (E_avg) integrate over the azimuth where it does.
+    anisotropic_fn: Callable | None = None
+
+    def anisotropic(self, cfg: "Config", values: dict) -> bool:
+        return bool(self.anisotropic_fn and self.anisotropic_fn(dict(cfg.defines), values))
 
     def param(self, name: str) -> Param:
         for p in self.params:

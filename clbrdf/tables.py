@@ -29,7 +29,8 @@ class _Staged:
 
     def open(self, path: Path, mode: str = "wb"):
         path = Path(path)
-        fd, tmp = tempfile.mkstemp(dir=str(path.parent) or ".", prefix=f".{path.name}.",
+        remove_stale(path)
+        fd, tmp = tempfile.mkstemp(dir=str(path.parent) or ".", prefix=_tmp_prefix(path),
                                    suffix=".tmp")
         self.pairs.append((path, tmp))
         return os.fdopen(fd, mode, **({} if "b" in mode else {"newline": "", "encoding": "utf-8"}))
@@ -42,8 +43,34 @@ class _Staged:
                 os.chmod(tmp, 0o666 & ~umask)
             except OSError:
                 pass
-        for path, tmp in self.pairs:
-            os.replace(tmp, path)
+        # keep the old files as hard links until every new one is in place, so that a failed
+        # replace (of the second file, say) restores the first: all old files or all new ones
+        backups = []
+        try:
+            for path, _ in self.pairs:
+                if path.exists():
+                    b = path.with_name(_tmp_prefix(path) + "old.tmp")
+                    if b.exists():
+                        b.unlink()
+                    os.link(path, b)
+                    backups.append((path, b))
+            done_pairs = []
+            try:
+                for path, tmp in self.pairs:
+                    os.replace(tmp, path)
+                    done_pairs.append(path)
+            except BaseException:
+                for path, b in backups:
+                    if path in done_pairs:
+                        os.replace(b, path)
+                for path in done_pairs:
+                    if path not in dict(backups):
+                        path.unlink()
+                raise
+        finally:
+            for _, b in backups:
+                if b.exists():
+                    b.unlink()
         done = [p for p, _ in self.pairs]
         self.pairs = []
         return done
@@ -55,6 +82,65 @@ class _Staged:
             except FileNotFoundError:
                 pass
         self.pairs = []
+
+
+def _tmp_prefix(path: Path, pid: int | None = None) -> str:
+    """Temporary files are .NAME.PID.XXXXXXXX.tmp beside NAME: a later run can tell whose they are."""
+    return f".{path.name}.{os.getpid() if pid is None else pid}."
+
+
+def remove_stale(path: Path) -> None:
+    """Remove temporary files of ``path`` left by a process that no longer runs (SIGKILL)."""
+    path = Path(path)
+    parent = path.parent if str(path.parent) else Path(".")
+    try:
+        entries = list(parent.glob(f".{glob_escape(path.name)}.*.tmp"))
+    except OSError:
+        return
+    for e in entries:
+        pid = e.name[len(path.name) + 2:].split(".", 1)[0]
+        if pid.isdigit() and int(pid) != os.getpid() and not _alive(int(pid)):
+            try:
+                e.unlink()
+            except OSError:
+                pass
+
+
+def glob_escape(name: str) -> str:
+    import glob
+    return glob.escape(name)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def check_output(out) -> dict:
+    """Before any work: the suffix is known, the directory exists and takes new files (a probe
+    file is created and removed, which also catches read-only file systems), and no output path
+    is a directory. Raises ValueError naming the problem; returns the paths (``paths_for``)."""
+    paths = paths_for(out)
+    parent = Path(out).parent if str(Path(out).parent) else Path(".")
+    if not parent.is_dir():
+        raise ValueError(f"directory {str(parent)!r} does not exist")
+    for p in paths.values():
+        if p.is_dir():
+            raise ValueError(f"{str(p)!r} is a directory; give a file name")
+        if p.exists() and not os.access(p, os.W_OK):
+            raise ValueError(f"{str(p)!r} is not writable")
+    try:
+        fd, probe = tempfile.mkstemp(dir=str(parent), prefix=_tmp_prefix(Path(out)), suffix=".tmp")
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        raise ValueError(f"cannot write in directory {str(parent)!r}: {e.strerror or e}") from None
+    return paths
 
 
 def _sync_close(f):
@@ -123,7 +209,7 @@ def _write_avg_csv(f, table):
 
 def save_table(table: dict, out) -> list[Path]:
     """Write the table and its chart (see the module docstring); returns the paths written."""
-    paths = paths_for(out)
+    paths = check_output(out)
     staged = _Staged()
     try:
         if "avg" in paths:

@@ -27,6 +27,8 @@ Cook-Torrance's Fresnel formula), and Lambertian as albedo / pi: exactly this mo
 nu = nv = sharpness, fresnel = dielectric, eta = fresnelReflectance, ks = LowAshikhminShirley
 albedo, kd = Lambertian albedo, and no rd.
 """
+import numpy as np
+
 from ..spec import ModelSpec, Option, Param, ParameterError
 
 PARAMS = (
@@ -75,6 +77,7 @@ SPEC = ModelSpec(
     params=PARAMS,
     options=OPTIONS,
     configure_fn=configure,
+    anisotropic_fn=lambda d, v: bool(np.any(np.asarray(v["nu"]) != np.asarray(v["nv"]))),
 )
 
 SPECS = (SPEC,)

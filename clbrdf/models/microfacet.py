@@ -90,7 +90,7 @@ def spec(name: str, title: str, reference: str, *, header: str | None = None,
     return ModelSpec(name=name, title=title, reference=reference, header="microfacet.h",
                      prefix="microfacet", params=params, options=options,
                      configure_fn=configure(name, shape.name if shape else None, header, samplers),
-                     notes=notes)
+                     notes=notes, anisotropic_fn=lambda d, v: d.get("MF_ANISO") == "1")
 
 
 GGX = spec("ggx", "Microfacet, GGX (Trowbridge-Reitz) distribution",

@@ -69,6 +69,7 @@ SPEC = ModelSpec(
     params=PARAMS,
     options=OPTIONS,
     configure_fn=configure,
+    anisotropic_fn=lambda d, v: d["SCH_ANISO1"] == "1" or d["SCH_ANISO2"] == "1",
 )
 
 SPECS = (SPEC,)
