@@ -6,3 +6,4 @@ from .device import DeviceError, get_device, list_devices  # noqa: F401
 from .models import MODELS  # noqa: F401
 from . import presets  # noqa: F401
 from .spec import ParameterError  # noqa: F401
+from .check import check  # noqa: F401,E402  (clbrdf.check(model, ...): the property battery)

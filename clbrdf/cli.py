@@ -26,6 +26,7 @@ from .spec import ParameterError
 
 EXIT_INPUT = 2
 EXIT_DEVICE = 3
+EXIT_CHECK_FAILED = 4
 
 DEVICE_HELP = ("OpenCL device: P:D as 'clbrdf devices' lists it, or a substring of the device or "
                "platform name (default: env CLBRDF_DEVICE, else the first GPU, else the first CPU "
@@ -337,6 +338,31 @@ def cmd_albedo(args) -> int:
     return 0
 
 
+def cmd_check(args) -> int:
+    from .check import check
+    spec = _spec(args.model)
+    params = parse_params(spec, args.param)
+    out = None
+    if args.out:
+        out = Path(args.out)
+        if out.exists() and not out.is_dir():
+            raise ParameterError(f"--out {args.out!r} is a file; give a directory")
+    m = _model(spec.name, args, params)
+    from .runtime import check_int
+    check_int("samples", args.samples, 1024, 2**32 - 1, "[1024, 2^32)")
+    r = check(m, samples=args.samples, seed=args.seed, out=out)
+    if args.json:
+        print(json.dumps(r.to_json(), indent=2))
+    else:
+        print(f"clbrdf check {spec.name} ({', '.join(f'{k}={v}' for k, v in r.params.items() if k != 'model')}; "
+              f"{m.precision} precision, {m.device.info.name})")
+        print(r.table())
+        for c in r.checks:
+            for f in c.details.get("files", []):
+                print(f"  wrote {f}")
+    return 0 if r.passed else EXIT_CHECK_FAILED
+
+
 def cmd_table(args) -> int:
     from . import tables
     from .core import albedo_table
@@ -392,7 +418,8 @@ def build_parser() -> argparse.ArgumentParser:
     from .models import MODELS
     top = _Parser(prog="clbrdf", description="Evaluate, sample and integrate BRDFs in bulk with "
                   "OpenCL kernels (PoCL on the CPU out of the box).",
-                  epilog="Exit codes: 0 ok, 2 bad input, 3 no usable OpenCL device, 1 other errors.")
+                  epilog="Exit codes: 0 ok, 2 bad input, 3 no usable OpenCL device, 4 a check failed "
+                         "(clbrdf check), 1 other errors.")
     top.add_argument("--version", action="version", version=f"clbrdf {__version__}")
     sub = top.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
@@ -474,6 +501,26 @@ def build_parser() -> argparse.ArgumentParser:
     sampling_args(p)
     p.add_argument("--out", "-o", required=True, metavar="FILE", help="output .npz or .csv")
     p.set_defaults(func=cmd_table)
+
+    p = sub.add_parser("check", parents=[dev], help="property checks of one configuration",
+                       description="Run the conformance checks on the device for one "
+                                   "configuration: finite and non-negative values, weight = f cos "
+                                   "/ pdf, chi-square of the sampler against its pdf, the pdf's "
+                                   "integral, albedo against a sampler-free quadrature, honest "
+                                   "standard errors, and energy (max E with confidence bounds). "
+                                   "Exit 0 when every check passes, 4 when any fails.")
+    model_arg(p)
+    p.add_argument("--precision", choices=PRECISIONS, default="single",
+                   help="kernel arithmetic (default single)")
+    p.add_argument("--samples", "-n", type=int, default=1 << 16, metavar="N",
+                   help="samples per direction (default 65536)")
+    p.add_argument("--seed", type=int, default=0, metavar="S", help="random seed (default 0)")
+    p.add_argument("--width", type=int, choices=(1, 2, 4, 8, 16), default=None,
+                   help="lanes per work-item")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--out", metavar="DIR", help="directory for the chi-square histograms (PNG) "
+                   "and worst bins (CSV) when that check fails")
+    p.set_defaults(func=cmd_check)
     return top
 
 

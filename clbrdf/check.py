@@ -1,0 +1,421 @@
+"""``clbrdf check``: the property battery on the device, for one configuration.
+
+``check(model, ...)`` runs, for a model configuration as a user would pass it:
+
+- finite: eval, pdf, and sampled directions, weights and densities over a grid of directions
+  from grazing (mu = MU_MIN of the precision) to normal, mirror pairs included, are finite;
+- non-negative: the same values are >= 0;
+- weight: a sample's weight equals f cos(theta_i) / pdf computed by eval and pdf at the sampled
+  direction (relative error at most 1e-3 single / 1e-8 double in all but 0.1 % of samples);
+- chi-square: the sampled directions follow the pdf (Pearson's test over equal-mass bins whose
+  expected counts are integrals of the pdf refined until two quadrature orders agree, at several
+  outgoing directions; Sidak-corrected to a family-wise significance of 1e-3);
+- pdf integral: the pdf integrates to the fraction of samples above the horizon (at most 1);
+- albedo vs quadrature: the brdf and mis estimates of E agree (Sidak-corrected z-test) with a
+  deterministic quadrature of eval over the hemisphere, which does not use the sampler;
+- stderr honest: z-scores of 64 independent small estimates have variance near 1;
+- energy: max E over the direction grid with its confidence bounds; fails when the lower bound
+  exceeds 1 (the configuration gains energy).
+
+Each check gives a statistic, a threshold, a verdict and the worst point. ``CheckReport.passed``
+is True when every check passes.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import stats as sps
+
+from . import stats as S
+from .core import Model, albedo
+from .spec import MU_MIN
+
+ALPHA = 1e-3              # family-wise significance of the statistical checks
+WEIGHT_RTOL = {"single": 1e-3, "double": 1e-8}
+WEIGHT_BAD_FRACTION = 1e-3
+# Rounding floor of an albedo estimate, in units of |E|: each sample's weight carries a few ulps
+# of rounding that do not average out (a bias, not noise), so statistical comparisons add
+# ROUND_ULPS ulps of |E| in quadrature to the standard errors.
+ROUND_ULPS = 8
+EPS = {"single": 2.0 ** -24, "double": 2.0 ** -53}
+
+
+def _floor(m, e):
+    return ROUND_ULPS * EPS[m.precision] * np.maximum(np.abs(e), 1.0)
+
+
+@dataclass
+class Check:
+    name: str
+    passed: bool
+    statistic: float
+    threshold: str
+    worst: str = ""
+    details: dict = field(default_factory=dict)
+
+    def to_json(self):
+        return {"name": self.name, "passed": bool(self.passed), "statistic": _num(self.statistic),
+                "threshold": self.threshold, "worst": self.worst}
+
+
+@dataclass
+class CheckReport:
+    model: str
+    params: dict
+    precision: str
+    checks: list
+    seconds: float
+
+    @property
+    def passed(self) -> bool:
+        return all(c.passed for c in self.checks)
+
+    def to_json(self):
+        return {"model": self.model, "params": {k: v for k, v in self.params.items() if k != "model"},
+                "precision": self.precision,
+                "passed": self.passed, "seconds": self.seconds,
+                "checks": [c.to_json() for c in self.checks]}
+
+    def table(self) -> str:
+        rows = [("check", "statistic", "threshold", "verdict", "worst point")]
+        for c in self.checks:
+            rows.append((c.name, f"{c.statistic:.4g}", c.threshold, "pass" if c.passed else "FAIL",
+                         c.worst))
+        w = [max(len(r[i]) for r in rows) for i in range(4)]
+        lines = ["  ".join(r[i].ljust(w[i]) for i in range(4)) + "  " + r[4] for r in rows]
+        verdict = "all checks pass" if self.passed else \
+            f"{sum(not c.passed for c in self.checks)} of {len(self.checks)} checks FAIL"
+        return "\n".join(lines + [f"{self.model}: {verdict} ({self.seconds:.1f} s)"])
+
+
+def _num(x):
+    x = float(x)
+    return x if math.isfinite(x) else str(x)
+
+
+def _dir(mu, phi):
+    s = np.sqrt(np.maximum(0.0, 1 - mu * mu))
+    return np.stack([s * np.cos(phi), s * np.sin(phi), mu], -1)
+
+
+def _mus(precision):
+    lo = MU_MIN[precision]
+    return np.array([lo, 1e-4 if lo < 1e-4 else 2 * lo, 1e-2, 0.1, 0.3, 0.5, 0.7, 0.9, 1.0])
+
+
+def _phis(m):
+    return np.array([0.0, 0.4, 1.3, 2.2, 3.5]) if m.anisotropic else np.array([0.0])
+
+
+def _where(wo=None, wi=None, ch=None):
+    parts = []
+    if wo is not None:
+        parts.append(f"wo=({wo[0]:.4g}, {wo[1]:.4g}, {wo[2]:.4g})")
+    if wi is not None:
+        parts.append(f"wi=({wi[0]:.4g}, {wi[1]:.4g}, {wi[2]:.4g})")
+    if ch is not None:
+        parts.append(f"channel {ch}")
+    return " ".join(parts)
+
+
+def _pairs(m):
+    """Direction pairs (wi, wo): every grid direction against every other, plus mirror pairs."""
+    mus, phis = _mus(m.precision), _phis(m)
+    M, P = np.meshgrid(mus, np.concatenate([phis, phis + np.pi]), indexing="ij")
+    d = _dir(M.ravel(), P.ravel())
+    wi = np.repeat(d, len(d), 0)
+    wo = np.tile(d, (len(d), 1))
+    mirror = d * np.array([-1.0, -1.0, 1.0])
+    return np.concatenate([wi, mirror]), np.concatenate([wo, d])
+
+
+def _values(m, seed):
+    """eval and pdf over the pairs, samples at every grid direction: arrays and their points."""
+    wi, wo = _pairs(m)
+    f = np.asarray(m.eval(wi, wo), float)
+    p = np.asarray(m.pdf(wo, wi), float)
+    mus, phis = _mus(m.precision), _phis(m)
+    M, P = np.meshgrid(mus, phis, indexing="ij")
+    wos = _dir(M.ravel(), P.ravel())
+    n = 4096
+    wo_s = np.repeat(wos, n, 0)
+    swi, sw, sp = m.sample(wo_s, seed=seed)
+    return dict(wi=wi, wo=wo, f=f, p=p, wo_s=wo_s, swi=np.asarray(swi, float),
+                sw=np.asarray(sw, float), sp=np.asarray(sp, float))
+
+
+def _rowwise(a):
+    return a.reshape(len(a), -1)
+
+
+def check_finite(m, v) -> Check:
+    bad_total, worst = 0, ""
+    for name, arr, wi, wo in (("eval", v["f"], v["wi"], v["wo"]), ("pdf", v["p"], v["wi"], v["wo"]),
+                              ("sample weight", v["sw"], v["swi"], v["wo_s"]),
+                              ("sample pdf", v["sp"], v["swi"], v["wo_s"]),
+                              ("sample direction", v["swi"], v["swi"], v["wo_s"])):
+        bad = ~np.all(np.isfinite(_rowwise(arr)), axis=1)
+        if bad.any() and not worst:
+            i = int(np.argmax(bad))
+            worst = f"{name} {_rowwise(arr)[i].tolist()} at {_where(wo[i], wi[i])}"
+        bad_total += int(bad.sum())
+    return Check("finite", bad_total == 0, bad_total, "0 non-finite values", worst)
+
+
+def check_nonnegative(m, v) -> Check:
+    lo, worst = 0.0, ""
+    for name, arr, wi, wo in (("eval", v["f"], v["wi"], v["wo"]), ("pdf", v["p"], v["wi"], v["wo"]),
+                              ("sample weight", v["sw"], v["swi"], v["wo_s"]),
+                              ("sample pdf", v["sp"], v["swi"], v["wo_s"])):
+        a = np.nan_to_num(_rowwise(arr), nan=0.0).min(axis=1)
+        i = int(np.argmin(a))
+        if a[i] < lo:
+            lo, worst = float(a[i]), f"{name} = {a[i]:.3g} at {_where(wo[i], wi[i])}"
+    return Check("non-negative", lo >= 0, lo, "min >= 0", worst)
+
+
+def check_weight(m, v) -> Check:
+    up = (v["swi"][:, 2] > 0) & (v["sp"] > 0)
+    wi, wo, w, p = v["swi"][up], v["wo_s"][up], _rowwise(v["sw"][up]), v["sp"][up]
+    if not len(wi):
+        return Check("weight = f cos / pdf", False, 1.0, "samples above the horizon", "none")
+    ref = _double_twin(m)
+    f = _rowwise(np.asarray(ref.eval(wi, wo), float))
+    pe = np.asarray(ref.pdf(wo, wi), float)
+    want = f * wi[:, 2:3] / np.where(pe > 0, pe, np.inf)[:, None]
+    rel = np.abs(w - want) / np.maximum(np.abs(want), 1e-30)
+    rel = np.where((w == 0) & (want == 0), 0.0, rel).max(axis=1)
+    tol = WEIGHT_RTOL[m.precision]
+    frac = float(np.mean(~(rel <= tol)))
+    i = int(np.argmax(np.nan_to_num(rel, nan=np.inf)))
+    return Check("weight = f cos / pdf", frac <= WEIGHT_BAD_FRACTION, frac,
+                 f"fraction with rel. error > {tol:g} <= {WEIGHT_BAD_FRACTION:g}",
+                 f"rel. error {rel[i]:.3g} at {_where(wo[i], wi[i])}")
+
+
+def _double_twin(m):
+    """The same configuration (and class) in double precision where the device has fp64: f and
+    pdf at a sampled direction are then computed accurately, and the check measures the sample
+    weight, not the conditioning of a single-precision eval (h = normalize(wi + wo))."""
+    if m.precision == "double" or not m.device.info.has_fp64:
+        return m
+    return type(m)(m.name, precision="double", device=m.device,
+                   channels=m.channels, **m.options, **m.params)
+
+
+def _lobe_scale(m, wo, seed):
+    """Stretch (ax, ay) of the half-vector map from a pilot sample (not the tested one):
+    median |slope| of h = normalize(wi + wo) along x and y, within [1e-4, 1]."""
+    wi, _, _ = m.sample(np.broadcast_to(wo, (4096, 3)), seed=seed + 7919)
+    wi = np.asarray(wi, float)
+    wi = wi[wi[:, 2] > 0]
+    if len(wi) < 16:
+        return 1.0, 1.0
+    h = wi + wo
+    h /= np.linalg.norm(h, axis=1, keepdims=True)
+    sx = np.median(np.abs(h[:, 0] / h[:, 2]))
+    sy = np.median(np.abs(h[:, 1] / h[:, 2]))
+    return float(np.clip(2 * sx, 1e-4, 1.0)), float(np.clip(2 * sy, 1e-4, 1.0))
+
+
+def chi2_at(m, wo, n, seed, max_levels=3):
+    """Chi-square of n samples at wo against the pdf, panels refined (x2 each way, up to
+    ``max_levels`` times) until the two quadrature orders agree to 0.1 sd in every bin."""
+    ax, ay = _lobe_scale(m, wo, seed)
+    hmap = S.HalfVectorMap(wo, ax, ay)
+    wi, _, _ = m.sample(np.broadcast_to(wo, (n, 3)), seed=seed)
+    wi = np.asarray(wi, float)
+
+    def pdf(w):
+        return np.asarray(m.pdf(np.broadcast_to(wo, w.shape), w), float)
+    ns, nt = 64, 128
+    for level in range(max_levels + 1):
+        r = S.map_chi2(hmap, pdf, wi, ns=ns, nt=nt, max_qerr=None)
+        if r.qerr < 0.1 or level == max_levels:
+            return r, (ns, nt), hmap
+        ns, nt = 2 * ns, 2 * nt
+
+
+def check_chi2(m, samples, seed, out_dir=None):
+    wos = _chi2_directions(m)
+    k = len(wos)
+    level = S.sidak(ALPHA, k)
+    results = []
+    for j, wo in enumerate(wos):
+        try:
+            r, panels, hmap = chi2_at(m, wo, samples, seed + j)
+        except ValueError as e:          # the pdf is not finite or negative somewhere
+            bad = Check("chi-square", False, float("nan"), "a finite, non-negative pdf",
+                        f"{e} at {_where(wo)}")
+            return bad, Check("pdf integral", False, float("nan"), "a finite, non-negative pdf",
+                              bad.worst)
+        results.append((r, wo, panels, hmap))
+    pmin = min(r.p for r, *_ in results)
+    r, wo, panels, hmap = min(results, key=lambda x: x[0].p)
+    conv = max(x[0].qerr for x in results)
+    passed = pmin >= level and conv < 0.1
+    worst = f"p = {pmin:.3g} at {_where(wo)} ({r.dof} dof, stat {r.stat:.4g}, panels {panels})"
+    if conv >= 0.1:
+        worst += f"; expected counts not converged ({conv:.3g} sd)"
+    chk = Check("chi-square", passed, pmin, f"p >= {level:.3g} (Sidak, {k} directions, "
+                f"family {ALPHA:g})", worst)
+    if not passed and out_dir is not None:
+        chk.details["files"] = _chi2_plots(r, panels, wo, out_dir, m)
+    ints = [(x[0].total, x[0].above, x[1]) for x in results]
+    z = [abs(t - a) / math.sqrt(max(a * (1 - a), 1 / samples) / samples) for t, a, _ in ints]
+    i = int(np.argmax(z))
+    over = max(t for t, _, _ in ints)
+    zlim = float(sps.norm.isf(level / 2))
+    pdf_chk = Check("pdf integral", z[i] < zlim + 1 and over <= 1 + 1e-3, z[i],
+                    f"|int pdf - fraction above| < {zlim + 1:.2f} sd and int pdf <= 1.001",
+                    f"int pdf = {ints[i][0]:.6g}, fraction above {ints[i][1]:.6g} at "
+                    f"{_where(ints[i][2])}")
+    return chk, pdf_chk
+
+
+def _chi2_plots(r, panels, wo, out_dir, m):
+    """Observed and expected counts per bin (PNG) and the worst bins (CSV)."""
+    from pathlib import Path
+    from matplotlib.figure import Figure
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    ns, nt = panels
+    obs_map = r.obs[:-1][r.binmap] / np.maximum(np.bincount(r.binmap.ravel())[r.binmap], 1)
+    exp_map = r.exp[:-1][r.binmap] / np.maximum(np.bincount(r.binmap.ravel())[r.binmap], 1)
+    fig = Figure(figsize=(12, 4), layout="constrained")
+    for i, (title, a) in enumerate((("observed", obs_map), ("expected", exp_map),
+                                    ("(obs - exp) / sqrt(exp)",
+                                     (obs_map - exp_map) / np.sqrt(np.maximum(exp_map, 1e-12))))):
+        ax = fig.add_subplot(1, 3, i + 1)
+        im = ax.imshow(a, origin="lower", aspect="auto", extent=(0, 1, 0, 1))
+        ax.set_title(title)
+        ax.set_xlabel("t (azimuth of h / 2 pi)")
+        ax.set_ylabel("s (graded slope radius)")
+        fig.colorbar(im, ax=ax)
+    fig.suptitle(f"{m.name} chi-square at wo = {np.round(wo, 4).tolist()}")
+    png = out / f"chi2_{m.name}.png"
+    fig.savefig(png)
+    z = (r.obs - r.exp) / np.sqrt(np.maximum(r.exp, 1e-12))
+    order = np.argsort(-np.abs(z))[:20]
+    csv = out / f"chi2_{m.name}_worst_bins.csv"
+    with open(csv, "w") as f:
+        f.write("bin,observed,expected,z\n")
+        for b in order:
+            name = "below-horizon" if b == len(r.obs) - 1 else str(b)
+            f.write(f"{name},{int(r.obs[b])},{r.exp[b]:.6g},{z[b]:.4g}\n")
+    return [str(png), str(csv)]
+
+
+def quadrature_albedo(m, wo, hmap, panels):
+    """E(wo) per channel by integrating eval(wi, wo) cos(theta_i) over the panels of hmap
+    (Gauss-Legendre of order 4 per panel on 2 ns x 2 nt panels): a deterministic value that does
+    not use the sampler; its error is taken as the change from ns x nt panels plus the change
+    from order 3 to 4 there."""
+    ns, nt = panels
+    out = []
+    for c in range(m.channels):
+        def f(w, c=c):
+            v = np.asarray(m.eval(w, np.broadcast_to(wo, w.shape)), float)
+            return (v if m.channels == 1 else v[..., c]) * w[..., 2]
+        hi = S.panel_integrals(hmap, f, 2 * ns, 2 * nt, 4).sum()
+        lo = S.panel_integrals(hmap, f, ns, nt, 4).sum()
+        lo3 = S.panel_integrals(hmap, f, ns, nt, 3).sum()
+        out.append((hi, abs(hi - lo) + abs(lo - lo3)))
+    return np.array(out)
+
+
+def check_albedo(m, samples, seed):
+    """brdf and mis estimates against the sampler-free quadrature of eval (quadrature_albedo)."""
+    wos = _chi2_directions(m) + [_dir(np.array(MU_MIN[m.precision] * 100), np.array(0.0))]
+    zs, worst_z, worst = 0, 0.0, ""
+    for j, wo in enumerate(wos):
+        try:
+            _, panels, hmap = chi2_at(m, wo, 1 << 12, seed + 100 + j)
+            q = quadrature_albedo(m, wo, hmap, panels)
+        except ValueError as e:
+            return Check("albedo vs quadrature", False, float("nan"), "a finite pdf and eval",
+                         f"{e} at {_where(wo)}")
+        if not np.all(np.isfinite(q)):
+            return Check("albedo vs quadrature", False, float("nan"), "a finite eval",
+                         f"the quadrature of eval is not finite at {_where(wo)}")
+        mu, phi = float(wo[2]), math.atan2(wo[1], wo[0])
+        for k, est in enumerate(("brdf", "mis")):
+            r = albedo(m, mu, phi, estimator=est, samples=samples, seed=seed + 2 * j + k)
+            e, se = np.atleast_1d(r.albedo), np.atleast_1d(r.stderr)
+            z = np.abs(e - q[:, 0]) / np.sqrt(se ** 2 + q[:, 1] ** 2 + _floor(m, e) ** 2)
+            zs += z.size
+            if z.max() > worst_z:
+                c = int(np.argmax(z))
+                worst_z = float(z.max())
+                worst = (f"{est} {e[c]:.7g} +- {se[c]:.2g} vs quadrature {q[c, 0]:.7g} at "
+                         f"{_where(wo)}" + (f" channel {c}" if m.channels > 1 else ""))
+    lim = float(sps.norm.isf(S.sidak(ALPHA, zs) / 2))
+    return Check("albedo vs quadrature", worst_z < lim, worst_z,
+                 f"|z| < {lim:.2f} (Sidak over {zs})", worst)
+
+
+def _chi2_directions(m):
+    wos = [_dir(np.array(mu), np.array(phi)) for mu in (0.05, 0.5, 1.0) for phi in _phis(m)[:2]]
+    return [w for i, w in enumerate(wos) if not (w[2] == 1.0 and i % 2)]
+
+
+def check_stderr(m, seed, samples, runs=64):
+    """z-scores of independent estimates against their mean: var(z) ~ 1 when the stderr is
+    honest. Accepts var(z) in a chi-square interval (runs - 1 dof) widened by 25 % for the
+    estimated stderr (heavy-tailed weights fail here, rightly)."""
+    worst_v, worst = 1.0, ""
+    # (a rare event, e.g. one sample in 1e6 below the horizon, makes most runs report a tiny
+    # stderr and a few a large deviation: at this sample count the stderr is not to be trusted)
+    for mu in (0.1, 0.8):
+        MU = np.full(runs, mu)
+        # independent runs: 64 points with equal parameters draw independent streams
+        r = albedo(m, MU, samples=samples, seed=seed)
+        e, s = _rowwise(r.albedo.reshape(runs, -1)), _rowwise(r.stderr.reshape(runs, -1))
+        for c in range(e.shape[1]):
+            sc = np.sqrt(s[:, c] ** 2 + _floor(m, e[:, c]) ** 2)
+            zc = (e[:, c] - e[:, c].mean()) / sc
+            if np.all(s[:, c] < _floor(m, e[:, c])):
+                continue            # no statistical error to judge: the estimator is exact
+            v = float(np.sum(zc ** 2) / (runs - 1))
+            if abs(math.log(v)) > abs(math.log(worst_v)):
+                worst_v, worst = v, (f"mu={mu}" + (f" channel {c}" if e.shape[1] > 1 else "")
+                                     + f": E in [{e[:, c].min():.8g}, {e[:, c].max():.8g}], "
+                                       f"median stderr {np.median(s[:, c]):.2g}")
+    lo = sps.chi2.ppf(ALPHA / 4, runs - 1) / (runs - 1) / 1.25
+    hi = sps.chi2.isf(ALPHA / 4, runs - 1) / (runs - 1) * 1.25
+    return Check("stderr honest", lo <= worst_v <= hi, worst_v, f"var(z) in [{lo:.2f}, {hi:.2f}]",
+                 worst)
+
+
+def check_energy(m, samples, seed):
+    mus, phis = _mus(m.precision), _phis(m)
+    MU, PHI = np.meshgrid(mus, phis, indexing="ij")
+    r = albedo(m, MU, PHI, estimator="mis", samples=samples, seed=seed)
+    e, s = r.albedo, np.sqrt(r.stderr ** 2 + _floor(m, r.albedo) ** 2)
+    k = e.size
+    z = float(sps.norm.isf(S.sidak(ALPHA, k)))
+    i = np.unravel_index(int(np.argmax(e - z * s)), e.shape)
+    lower, upper = e[i] - z * s[i], e[i] + z * s[i]
+    ch = i[2] if len(i) > 2 else None
+    return Check("energy", lower <= 1, float(e[i]), "lower confidence bound of max E <= 1",
+                 f"E = {e[i]:.6g} [{lower:.6g}, {upper:.6g}] at mu={MU[i[:2]]:.3g} "
+                 f"phi={PHI[i[:2]]:.3g}" + (f" channel {ch}" if ch is not None else ""))
+
+
+def check(model, *, samples: int = 1 << 16, seed: int = 0, precision: str = "single",
+          device=None, out=None, **params) -> CheckReport:
+    """Run the battery on one configuration (a model name with parameters, options and
+    ``preset``, or a ``Model``). ``samples``: samples per direction for the chi-square and the
+    albedo checks. ``out``: a directory for the chi-square plots when that check fails."""
+    t0 = time.perf_counter()
+    m = model if isinstance(model, Model) else Model(model, precision=precision, device=device,
+                                                     **params)
+    v = _values(m, seed)
+    checks = [check_finite(m, v), check_nonnegative(m, v), check_weight(m, v)]
+    checks += list(check_chi2(m, samples, seed, out))
+    checks += [check_albedo(m, samples, seed), check_stderr(m, seed, samples),
+               check_energy(m, samples, seed)]
+    return CheckReport(m.name, m.describe(), m.precision, checks, time.perf_counter() - t0)

@@ -1,0 +1,119 @@
+"""clbrdf check: every registered model at its defaults, and each check shown able to fail on a
+configuration that breaks its property (a wrong pdf, a scaled eval, NaN at grazing, negative
+values, a model that gains energy)."""
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import clbrdf
+from clbrdf.check import check
+from clbrdf.models import MODELS
+
+# Checks that fail at a model's defaults because the model truly breaks the property (evidence in
+# docs/models.md, "What clbrdf check finds"): model -> names of the failing checks.
+KNOWN_FAILURES = {
+    "sgd_bagher": {"energy"},      # E = 1.3e4 at mu = 1e-6: the 1/(cos_i cos_o) form at grazing
+    "schlick": {"energy"},         # E = 1.47 at mu = 1e-6 (eq 18): Schlick's D is not conserving
+}
+
+
+# Defects found by clbrdf check and not fixed yet (issue 10, "single-precision albedo of
+# near-mirror lobes at grazing angles"): in single precision the sample weight at grazing
+# near-mirror pairs (wo.z <= 1e-4, wi.z <= 4e-4) differs from f cos / pdf computed in double by
+# 40-100 %, in 0.1-0.8 % of the samples of the direction grid. This test fails when they are
+# fixed, so that the entry is removed with the fix.
+KNOWN_DEFECTS = {name: {"weight = f cos / pdf"}
+                 for name in ("exppow", "gtr", "sgd", "sgd_bagher", "holzschuch_pacanowski")}
+
+
+@pytest.mark.parametrize("name", list(MODELS))
+def test_every_model_passes_at_defaults(name):
+    r = check(name)          # the defaults of clbrdf check (2^16 samples per direction, seed 0)
+    failed = {c.name for c in r.checks if not c.passed}
+    want = KNOWN_FAILURES.get(name, set()) | KNOWN_DEFECTS.get(name, set())
+    assert failed == want, r.table()
+
+
+class WrongPdf(clbrdf.Model):
+    """The kernels, with a pdf 10 % too large where the lobe is (a real kernel, a wrong density)."""
+    def pdf(self, wo, wi):
+        return 1.1 * super().pdf(wo, wi)
+
+
+class ScaledEval(clbrdf.Model):
+    def eval(self, wi, wo):
+        return 1.05 * super().eval(wi, wo)
+
+
+class NanAtGrazing(clbrdf.Model):
+    def eval(self, wi, wo):
+        f = super().eval(wi, wo)
+        return np.where(np.asarray(wo)[..., 2] < 1e-5, np.nan, f)
+
+
+class Negative(clbrdf.Model):
+    def pdf(self, wo, wi):
+        p = super().pdf(wo, wi)
+        return np.where(np.asarray(wi)[..., 2] < 0.01, -p - 1e-3, p)
+
+
+def failing(r):
+    return {c.name for c in r.checks if not c.passed}
+
+
+def test_check_detects_a_wrong_pdf(tmp_path):
+    r = check(WrongPdf("ggx", alpha=0.3), samples=1 << 15, out=tmp_path)
+    assert {"chi-square", "pdf integral", "weight = f cos / pdf"} <= failing(r), r.table()
+    chi = next(c for c in r.checks if c.name == "chi-square")
+    assert any(f.endswith(".png") for f in chi.details["files"])
+    assert (tmp_path / "chi2_ggx_worst_bins.csv").read_text().startswith("bin,observed")
+
+
+def test_check_detects_a_scaled_eval():
+    r = check(ScaledEval("ggx", alpha=0.3), samples=1 << 16)
+    assert {"weight = f cos / pdf", "albedo vs quadrature"} <= failing(r), r.table()
+
+
+def test_check_detects_nan_and_negative_values():
+    assert "finite" in failing(check(NanAtGrazing("ggx"), samples=1 << 12))
+    assert "non-negative" in failing(check(Negative("ggx"), samples=1 << 12))
+
+
+def test_check_detects_energy_gain():
+    """GGX with F = 1 plus a Lambertian kd = 0.5 reflects more than it receives."""
+    r = check("ggx", alpha=0.3, kd=0.5, samples=1 << 14)
+    assert failing(r) == {"energy"}, r.table()
+    e = next(c for c in r.checks if c.name == "energy")
+    assert e.statistic > 1.2 and "mu=" in e.worst
+
+
+def test_check_passes_rgb_anisotropic_preset():
+    r = check("beckmann", preset="alum-bronze", samples=1 << 14)
+    assert r.passed, r.table()
+    r = check("ggx", alpha_x=0.1, alpha_y=0.6, samples=1 << 14)
+    assert r.passed, r.table()
+
+
+def run(*args):
+    return subprocess.run([sys.executable, "-m", "clbrdf.cli", *map(str, args)],
+                          capture_output=True, text=True, timeout=300)
+
+
+def test_cli_check_exit_codes_and_json():
+    r = run("check", "ggx", "--param", "alpha=0.3", "--samples", 1 << 14, "--json")
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert set(out) >= {"model", "params", "passed", "checks"} and out["passed"] is True
+    assert out["params"]["alpha"] == 0.3
+    for c in out["checks"]:
+        assert set(c) >= {"name", "passed", "statistic", "threshold", "worst"}
+    r = run("check", "ggx", "--param", "kd=0.5", "--samples", 1 << 14)
+    assert r.returncode == 4, r.stderr
+    assert "energy" in r.stdout and "FAIL" in r.stdout
+    r = run("check", "ggx", "--param", "alpha=50")
+    assert r.returncode == 2 and "alpha=50" in r.stderr
+    r = run("check", "ggx", "--samples", 10)
+    assert r.returncode == 2 and "samples=10" in r.stderr
