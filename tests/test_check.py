@@ -15,8 +15,7 @@ from clbrdf.models import MODELS
 # Checks that fail at a model's defaults because the model truly breaks the property (evidence in
 # docs/models.md, "What clbrdf check finds"): model -> names of the failing checks.
 KNOWN_FAILURES = {
-    "sgd_bagher": {"energy"},      # E = 1.3e4 at mu = 1e-6: the 1/(cos_i cos_o) form at grazing
-    "schlick": {"energy"},         # E = 1.47 at mu = 1e-6 (eq 18): Schlick's D is not conserving
+    "schlick": {"energy"},         # E = 1.47 at mu = 1e-6 (eq 18): per direction not conserving
 }
 
 
@@ -25,8 +24,11 @@ KNOWN_FAILURES = {
 # near-mirror pairs (wo.z <= 1e-4, wi.z <= 4e-4) differs from f cos / pdf computed in double by
 # 40-100 %, in 0.1-0.8 % of the samples of the direction grid. This test fails when they are
 # fixed, so that the entry is removed with the fix.
+# sgd_bagher's energy: E = 0.0124 / mu at grazing (12 440 at mu = 1e-6, 125 at 1e-4, 12.8 at
+# 1e-3), whether from Bagher et al.'s formula or from our implementation is not settled yet.
 KNOWN_DEFECTS = {name: {"weight = f cos / pdf"}
                  for name in ("exppow", "gtr", "sgd", "sgd_bagher", "holzschuch_pacanowski")}
+KNOWN_DEFECTS["sgd_bagher"] = {"weight = f cos / pdf", "energy"}
 
 
 @pytest.mark.parametrize("name", list(MODELS))
