@@ -33,6 +33,17 @@ DEVICE_HELP = ("OpenCL device: P:D as 'clbrdf devices' lists it, or a substring 
                "whose compiler works)")
 
 
+class _Once(argparse.Action):
+    """An option that may be given once: a second --wi is an error, as a repeated --param is."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        if getattr(namespace, f"_seen_{self.dest}", False):
+            parser.error(f"{option_string} is given twice ({getattr(namespace, self.dest)} and "
+                         f"{values}); give it once")
+        setattr(namespace, f"_seen_{self.dest}", True)
+        setattr(namespace, self.dest, values)
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse with a one-line error message and exit code 2."""
 
@@ -470,8 +481,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("eval", parents=[dev], help="BRDF value for one pair of directions",
                        description="Print the BRDF value f(wi, wo) in 1/sr.")
     model_arg(p)
-    p.add_argument("--wi", required=True, metavar="X,Y,Z", help="direction to the light (unit, Z > 0)")
-    p.add_argument("--wo", required=True, metavar="X,Y,Z", help="direction to the viewer (unit, Z > 0)")
+    p.add_argument("--wi", required=True, action=_Once, metavar="X,Y,Z", help="direction to the light (unit, Z > 0)")
+    p.add_argument("--wo", required=True, action=_Once, metavar="X,Y,Z", help="direction to the viewer (unit, Z > 0)")
     p.add_argument("--precision", choices=PRECISIONS, default="single",
                    help="kernel arithmetic (default single)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -481,10 +492,10 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Directional albedo E(wo) = integral of f(wi, wo) cos(theta_i) "
                                    "over wi, for wo with cos(theta_o) = mu and azimuth phi.")
     model_arg(p)
-    p.add_argument("--mu", required=True, metavar="LIST",
+    p.add_argument("--mu", required=True, action=_Once, metavar="LIST",
                    help="comma-separated cos(theta_o) values in [1e-6, 1] (single) or [1e-12, 1] "
                         "(double), e.g. 0.1,0.5,1")
-    p.add_argument("--phi", default="0", metavar="P", help="azimuth of wo in radians (default 0)")
+    p.add_argument("--phi", default="0", action=_Once, metavar="P", help="azimuth of wo in radians (default 0)")
     sampling_args(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_albedo)

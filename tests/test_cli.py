@@ -232,6 +232,8 @@ BAD = [
     (["eval", "ggx", "--wi", "0,0.6,-0.8", "--wo", "0,0,1"], ["wi", "horizon"]),
     (["eval", "ggx", "--wi", "0,0,1", "--wo", "0,1"], ["wo", "X,Y,Z"]),
     (["albedo", "ggx", "--mu", "0.5,,1"], ["mu", "0.5,,1"]),
+    (["eval", "ggx", "--wi", "0,0,1", "--wi", "0,0.6,0.8", "--wo", "0,0,1"], ["--wi is given twice"]),
+    (["albedo", "ggx", "--mu", "0.5", "--mu", "0.7"], ["--mu is given twice"]),
     (["albedo", "ggx", "--mu", "0.5,x"], ["mu", "x"]),
     (["albedo", "ggx", "--mu", "0,0.5"], ["mu=0", "[1e-06, 1] in single"]),
     (["albedo", "ggx", "--mu", "1.5"], ["mu=1.5", "[1e-06, 1]"]),

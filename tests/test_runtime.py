@@ -115,3 +115,9 @@ def test_smallest_mu_per_precision(precision):
         clbrdf.albedo(m, lo / 2)
     r = clbrdf.albedo(m, lo, samples=1 << 12)
     assert np.isfinite(r.albedo) and r.albedo >= 0
+
+
+def test_bad_width_environment_variable_is_named(monkeypatch):
+    monkeypatch.setenv("CLBRDF_WIDTH", "abc")
+    with pytest.raises(clbrdf.ParameterError, match=r"CLBRDF_WIDTH='abc' is not valid.*1, 2, 4, 8, 16"):
+        clbrdf.Model("ggx")
