@@ -19,16 +19,10 @@ KNOWN_FAILURES = {
 }
 
 
-# Defects found by clbrdf check and not fixed yet (issue 10, "single-precision albedo of
-# near-mirror lobes at grazing angles"): in single precision the sample weight at grazing
-# near-mirror pairs (wo.z <= 1e-4, wi.z <= 4e-4) differs from f cos / pdf computed in double by
-# 40-100 %, in 0.1-0.8 % of the samples of the direction grid. This test fails when they are
-# fixed, so that the entry is removed with the fix.
-# sgd_bagher's energy: E = 0.0124 / mu at grazing (12 440 at mu = 1e-6, 125 at 1e-4, 12.8 at
-# 1e-3), whether from Bagher et al.'s formula or from our implementation is not settled yet.
-KNOWN_DEFECTS = {name: {"weight = f cos / pdf"}
-                 for name in ("exppow", "gtr", "sgd", "sgd_bagher", "holzschuch_pacanowski")}
-KNOWN_DEFECTS["sgd_bagher"] = {"weight = f cos / pdf", "energy"}
+# Found by clbrdf check, not settled: sgd_bagher's E = 0.0124 / mu at grazing (12 440 at
+# mu = 1e-6, 125 at 1e-4, 12.8 at 1e-3): Bagher et al.'s formula or our implementation. This test
+# fails when it changes, so that the entry goes with the fix.
+KNOWN_DEFECTS = {"sgd_bagher": {"energy"}}
 
 
 @pytest.mark.parametrize("name", list(MODELS))
