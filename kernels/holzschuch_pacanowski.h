@@ -53,10 +53,11 @@ inline realN hp_diffraction_scale(const Params *p, int c, realN *albedo)
 #endif
 }
 
-inline spec holzschuch_pacanowski_eval(const Params *p, vec3 wi, vec3 wo)
+/* f with the half vector h given (the sampler passes the h it drew: recomputing it from a
+ * rounded wi misses a near-mirror lobe at grazing angles in single precision). */
+inline spec hp_eval_h(const Params *p, vec3 wi, vec3 wo, vec3 h)
 {
     Microfacet m = {p->sigma, p->sigma, p->p};
-    vec3 h = normalize3(add3(wi, wo));
     realN G = 1 / ((1 + exppow_Lambda(m, wi)) * (1 + exppow_Lambda(m, wo)));   /* eq 6-7 */
     realN refl = exppow_D(m, h) / (4 * wi.z * wo.z);                            /* eq 24, 26 */
     realN one_c = 1 - dot3(wi, h);
@@ -76,6 +77,11 @@ inline spec holzschuch_pacanowski_eval(const Params *p, vec3 wi, vec3 wo)
     return f;
 }
 
+inline spec holzschuch_pacanowski_eval(const Params *p, vec3 wi, vec3 wo)
+{
+    return hp_eval_h(p, wi, wo, normalize3(add3(wi, wo)));
+}
+
 /* Probabilities of the reflection lobe (*ps) and of the cosine lobes (returned). */
 inline realN hp_lobe_probs(const Params *p, realN *ps)
 {
@@ -92,15 +98,19 @@ inline realN hp_lobe_probs(const Params *p, realN *ps)
     return sel((w + d) / t, (realN)0, t <= 0);
 }
 
-inline realN holzschuch_pacanowski_pdf(const Params *p, vec3 wo, vec3 wi)
+inline realN hp_pdf_h(const Params *p, vec3 wo, vec3 wi, vec3 h)
 {
     Microfacet m = {p->sigma, p->sigma, p->p};
     realN ps, pc = hp_lobe_probs(p, &ps);
-    vec3 h = normalize3(add3(wi, wo));
     realN oh = dot3(wo, h);
     realN lobe = sel((realN)0, exppow_D(m, h) * h.z / (4 * oh), oh > 0);
     realN pdf = ps * lobe + pc * wi.z * INV_PI_R;
     return sel((realN)0, pdf, (wi.z > 0) & (wo.z > 0));
+}
+
+inline realN holzschuch_pacanowski_pdf(const Params *p, vec3 wo, vec3 wi)
+{
+    return hp_pdf_h(p, wo, wi, normalize3(add3(wi, wo)));
 }
 
 inline BSample holzschuch_pacanowski_sample(const Params *p, vec3 wo, rand4 u)
@@ -110,10 +120,13 @@ inline BSample holzschuch_pacanowski_sample(const Params *p, vec3 wo, rand4 u)
     hp_lobe_probs(p, &ps);
     vec3 h = exppow_sample_ndf(m, u.u0, u.u1);
     BSample s;
-    s.wi = select3(square_to_cosine_hemisphere(u.u0, u.u1), reflect3(wo, h), u.u2 < ps);
-    s.pdf = holzschuch_pacanowski_pdf(p, wo, s.wi);
+    vec3 wc = square_to_cosine_hemisphere(u.u0, u.u1);
+    maskN refl = u.u2 < ps;
+    s.wi = select3(wc, reflect3(wo, h), refl);
+    vec3 hh = select3(normalize3(add3(wc, wo)), h, refl);   /* the drawn h for a lobe sample */
+    s.pdf = hp_pdf_h(p, wo, s.wi, hh);
     maskN ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
-    s.weight = spec_scale(holzschuch_pacanowski_eval(p, s.wi, wo), s.wi.z / s.pdf);
+    s.weight = spec_scale(hp_eval_h(p, s.wi, wo, hh), s.wi.z / s.pdf);
     s.weight = spec_sel(spec_splat((realN)0), s.weight, ok);
     s.pdf = sel((realN)0, s.pdf, ok);
     return s;

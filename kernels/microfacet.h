@@ -166,12 +166,23 @@ inline BSample microfacet_sample(const Params *p, vec3 wo, rand4 u)
     s.wi = reflect3(wo, h);
     maskN ok = (s.wi.z > 0) & (wo.z > 0);
 #if MF_DIFFUSE
-    /* mixture with the cosine lobe: weight = f cos / mixture pdf */
+    /* mixture with the cosine lobe: weight = f cos / mixture pdf, evaluated with the half vector
+     * of the chosen direction: the drawn h for a lobe sample (normalize(wi + wo) of the rounded
+     * wi misses a near-mirror lobe at grazing angles in single precision: exppow alpha 1e-3,
+     * kd 0.2, mu 1e-6 was 0.83 % low, 9 sd), normalize(wc + wo) for a cosine sample. */
     realN pd = mf_diffuse_prob(p, wo);
-    s.wi = select3(s.wi, square_to_cosine_hemisphere(u.u0, u.u1), u.u2 < pd);
-    s.pdf = microfacet_pdf(p, wo, s.wi);
+    maskN diffuse = u.u2 < pd;
+    vec3 wc = square_to_cosine_hemisphere(u.u0, u.u1);
+    s.wi = select3(s.wi, wc, diffuse);
+    vec3 hh = select3(h, normalize3(add3(wc, wo)), diffuse);
+    s.pdf = pd * s.wi.z * INV_PI_R + (1 - pd) * mf_lobe_pdf(m, wo, hh);
     ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
-    s.weight = spec_scale(microfacet_eval(p, s.wi, wo), s.wi.z / s.pdf);
+    /* f cos_i = F D G / (4 cos_o) + kd cos_i / pi */
+    realN lobe = MF(D)(m, hh) * mf_G(m, s.wi, wo, hh) / (4 * wo.z);
+    realN c_h = dot3(s.wi, hh);
+    realN inv = 1 / s.pdf;
+    for (int c = 0; c < CHANNELS; ++c)
+        s.weight.c[c] = (mf_fresnel(p, c_h, c) * lobe + p->kd[c] * INV_PI_R * s.wi.z) * inv;
 #else
     /* f cos_i / pdf with D cancelled: vndf F G / G1(wo); ndf F G (wo.h) / (cos_o cos_h) */
     realN G = mf_G(m, s.wi, wo, h);

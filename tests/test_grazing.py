@@ -1,0 +1,29 @@
+"""Single-precision albedo at grazing angles (mu down to MU_MIN) of near-mirror lobes with a
+Lambertian term, against the same estimator in double precision on the same random stream: the
+two differ by rounding only. A mixture sample used to re-derive its half vector from the rounded
+wi, which misses a near-mirror lobe at grazing angles (exppow alpha 1e-3, kd 0.2, mu 1e-6:
+0.83 % low, 9 standard errors)."""
+import numpy as np
+import pytest
+
+import clbrdf
+from clbrdf.spec import MU_MIN
+
+CASES = [
+    ("ggx", dict(alpha=1e-3, kd=0.2, sampler="ndf")),
+    ("ggx", dict(alpha=1e-3, kd=0.2)),
+    ("beckmann", dict(alpha=1e-3, kd=0.2, sampler="ndf")),
+    ("exppow", dict(alpha=1e-3, kd=0.2)),
+    ("gtr", dict(alpha=1e-3, kd=0.2)),
+    ("sgd", dict(alpha=1e-3, kd=0.2)),
+    ("holzschuch_pacanowski", dict(sigma=1e-3, kd=0.2)),
+]
+
+
+@pytest.mark.parametrize("name, kw", CASES, ids=[f"{n}-{'-'.join(map(str, k.values()))}" for n, k in CASES])
+def test_single_matches_double_at_grazing(name, kw):
+    mu = [MU_MIN["single"], 1e-4, 1e-2]
+    r = {p: clbrdf.albedo(clbrdf.Model(name, precision=p, **kw), mu, samples=1 << 20)
+         for p in ("single", "double")}
+    a, b = np.asarray(r["single"].albedo), np.asarray(r["double"].albedo)
+    assert np.all(np.abs(a - b) <= 1e-3 * np.abs(b)), (a, b)
