@@ -257,7 +257,9 @@ def cmd_models(args) -> int:
         print(json.dumps({s.name: {
             "title": s.title, "reference": s.reference,
             "params": {p.name: {"meaning": p.meaning, "range": p.range_text(), "lo": p.lo,
-                                "hi": p.hi, "lo_open": p.lo_open, "default": p.default,
+                                "hi": p.hi, "lo_open": p.lo_open,
+                                "default": None if p.computed else p.default,
+                                **({"default_computed": p.computed} if p.computed else {}),
                                 "per_channel": p.spectral}
                        for p in s.params},
             "options": {o.name: {"meaning": o.meaning, "choices": list(o.choices),
@@ -274,8 +276,10 @@ def cmd_models(args) -> int:
         wn = max(len(p.name) for p in s.params)
         wr = max(len(p.range_text()) for p in s.params)
         for p in s.params:
-            print(f"    {p.name.ljust(wn)}  {p.range_text().ljust(wr)}  default {p.default:<7g} "
-                  f"{p.meaning}{' (per channel: one value or R,G,B)' if p.spectral else ''}")
+            dflt = "computed" if p.computed else f"{p.default:<7g}"
+            print(f"    {p.name.ljust(wn)}  {p.range_text().ljust(wr)}  default {dflt:<8} "
+                  f"{p.meaning}{f' (default: {p.computed})' if p.computed else ''}"
+                  f"{' (per channel: one value or R,G,B)' if p.spectral else ''}")
         if s.options:
             print("  options (--param NAME=CHOICE):")
             wo = max(len(o.name) for o in s.options)

@@ -25,6 +25,8 @@ class Param:
     default: float
     lo_open: bool = False          # lo itself excluded
     spectral: bool = False         # one value per colour channel when the model has channels=3
+    computed: str = ""             # when not given, computed from other parameters (this text
+                                   # says how; ``default`` is then not used)
 
     def range_text(self) -> str:
         return f"{'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}]"
