@@ -32,7 +32,9 @@ inline realN fresnel_dielectric(realN eta, realN c)
 inline realN fresnel_conductor(realN eta, realN k, realN c)
 {
     realN c2 = c * c, s2 = 1 - c2;
-    realN t1 = eta * eta - k * k - s2, ek2 = 2 * eta * eta * k * k;
+    /* t1 = eta^2 - k^2 - s^2 as (eta - 1)(eta + 1) - k^2 + c^2: exact at eta = 1, k = 0, where
+     * 1 - s^2 lost c^2 < 6e-8 in single and F came out 1 at grazing instead of 0 */
+    realN t1 = (eta - 1) * (eta + 1) - k * k + c2, ek2 = 2 * eta * eta * k * k;
     realN a2pb2 = sqrt(t1 * t1 + 2 * ek2);
     realN a2 = sel((realN)0.5 * (a2pb2 + t1), ek2 / (a2pb2 - t1), t1 < 0);
     realN b2 = sel((realN)0.5 * (a2pb2 - t1), ek2 / (a2pb2 + t1), t1 > 0);

@@ -27,3 +27,19 @@ def test_single_matches_double_at_grazing(name, kw):
          for p in ("single", "double")}
     a, b = np.asarray(r["single"].albedo), np.asarray(r["double"].albedo)
     assert np.all(np.abs(a - b) <= 1e-3 * np.abs(b)), (a, b)
+
+
+@pytest.mark.parametrize("precision", ["single", "double"])
+def test_conductor_fresnel_vanishes_at_index_one(precision):
+    """eta = 1, k = 0 is no interface: F = 0 at every angle, grazing included (was 1 in single
+    for cos theta_d < 2.4e-4, where 1 - sin^2 lost cos^2)."""
+    m = clbrdf.Model("ggx", alpha=0.5, fresnel="conductor", eta=1.0, k=0.0, precision=precision)
+    mu = np.array([1e-6, 1e-5, 1e-4, 1e-3, 0.1, 0.5, 1.0])
+    s = np.sqrt(1 - mu ** 2)
+    wo = np.stack([s, 0 * s, mu], -1)
+    wi = np.stack([-s, 0 * s, mu], -1)          # mirror pairs: h = n, cos theta_d = mu
+    wi90 = np.stack([0 * s, s, mu], -1)
+    for a in (wi, wi90):
+        f = m.eval(a[:, None, :], wo[None, :, :])
+        assert np.all(f == 0) or np.max(np.abs(f)) < 1e-6 * np.max(np.abs(
+            clbrdf.Model("ggx", alpha=0.5, precision=precision).eval(a[:, None, :], wo[None, :, :]))), f
