@@ -28,6 +28,7 @@
 #define CLBRDF_HOLZSCHUCH_PACANOWSKI_H
 
 #include "dist_exppow.h"
+#include "fresnel.h"
 
 #define holzschuch_pacanowski_SAMPLE_DIMS 3
 
@@ -60,8 +61,7 @@ inline spec hp_eval_h(const Params *p, vec3 wi, vec3 wo, vec3 h)
     Microfacet m = {p->sigma, p->sigma, p->p};
     realN G = 1 / ((1 + exppow_Lambda(m, wi)) * (1 + exppow_Lambda(m, wo)));   /* eq 6-7 */
     realN refl = exppow_D(m, h) / (4 * wi.z * wo.z);                            /* eq 24, 26 */
-    realN one_c = 1 - dot3(wi, h);
-    realN schlick = sqr(sqr(one_c)) * one_c;                                     /* eq 27 */
+
     realN dp2 = sqr(wi.x + wo.x) + sqr(wi.y + wo.y);                             /* |Dp|^2 */
     maskN ok = (wi.z > 0) & (wo.z > 0);
     spec f;
@@ -70,7 +70,7 @@ inline spec hp_eval_h(const Params *p, vec3 wi, vec3 wo, vec3 h)
         realN alb;
         realN kw = hp_diffraction_scale(p, c, &alb);
         realN S = 1 / sqr(1 + dp2 / sqr(L * p->a));                              /* eq 25 */
-        realN F = p->f0[c] + (1 - p->f0[c]) * schlick;
+        realN F = fresnel_schlick(p->f0[c], dot3(wi, h));                        /* eq 27 */
         realN v = p->kd[c] * INV_PI_R + G * (p->ks[c] * F * refl + kw * S);
         f.c[c] = sel((realN)0, v, ok);
     }

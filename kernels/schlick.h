@@ -32,6 +32,8 @@
 #ifndef CLBRDF_SCHLICK_H
 #define CLBRDF_SCHLICK_H
 
+#include "fresnel.h"
+
 #define SCH_DIFFUSE (SCH_EQ == 17 || SCH_EQ == 18)
 #define schlick_SAMPLE_DIMS ((SCH_DOUBLE || SCH_DIFFUSE) ? 3 : 2)
 #define SCH_AGM_STEPS 9          /* AGM(1, p) to double precision for p >= 1e-7 */
@@ -69,12 +71,12 @@ inline SchLayer sch_layer2(const Params *p)
 }
 #endif
 
-/* S(u), eq 10 / eq 11 */
+/* S(u), eq 10 / eq 11; eq 11 is fresnel_schlick, which keeps 1 - u in [0, 1]: a rounded
+ * u = wo.h < 0 made S > 1 and R = S D + (1 - S) S2 D2 negative (-1e5 /sr with a sharp layer 2) */
 inline realN sch_S(realN C, realN u)
 {
 #if SCH_FRESNEL
-    realN m = 1 - u, m2 = m * m;
-    return C + (1 - C) * (m2 * m2 * m);
+    return fresnel_schlick(C, u);
 #else
     return C;
 #endif

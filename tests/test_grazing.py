@@ -43,3 +43,21 @@ def test_conductor_fresnel_vanishes_at_index_one(precision):
         f = m.eval(a[:, None, :], wo[None, :, :])
         assert np.all(f == 0) or np.max(np.abs(f)) < 1e-6 * np.max(np.abs(
             clbrdf.Model("ggx", alpha=0.5, precision=precision).eval(a[:, None, :], wo[None, :, :]))), f
+
+
+def test_schlick_fresnel_spectral_factor_stays_non_negative():
+    """spectral=fresnel keeps 1 - u in [0, 1]: a rounded u = wo.h < 0 made S > 1 and the DOUBLE
+    material's (1 - S) S2 D2 negative (down to -1e5 /sr with a sharp layer 2)."""
+    m = clbrdf.Model("schlick", spectral="fresnel", material="double", r2=1e-7, c=0.5)
+    rng = np.random.default_rng(3)
+    mu = np.concatenate([10.0 ** rng.uniform(-6, 0, 4000), [1e-6, 1e-5, 1e-4]])
+    phi = rng.uniform(0, 2 * np.pi, mu.size)
+    s = np.sqrt(1 - mu ** 2)
+    wo = np.stack([s * np.cos(phi), s * np.sin(phi), mu], -1)
+    mirror = wo * np.array([-1, -1, 1])
+    jitter = mirror + 1e-4 * rng.standard_normal(wo.shape)
+    jitter[:, 2] = np.abs(jitter[:, 2]) + 1e-7
+    jitter /= np.linalg.norm(jitter, axis=1, keepdims=True)
+    for wi in (mirror, jitter, wo[::-1]):
+        f = m.eval(wi, wo)
+        assert np.all(f >= 0), f.min()
