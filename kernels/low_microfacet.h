@@ -52,12 +52,6 @@ inline realN low_h_norm_inv(realN b, realN c)
     return b / (2 * PI_R * L * low_expm1_over((1 - c) * L));
 }
 
-/* V-cavity G (Cook & Torrance 1982), 0 where wo.h <= 0. */
-inline realN low_vcavity(vec3 wi, vec3 wo, vec3 h)
-{
-    realN oh = dot3(wo, h);
-    return sel(fmin((realN)1, 2 * h.z * fmin(wi.z, wo.z) / oh), (realN)0, oh <= 0);
-}
 
 inline realN low_mf_diffuse_prob(const Params *p, vec3 wo)
 {
@@ -83,7 +77,7 @@ inline spec low_microfacet_eval(const Params *p, vec3 wi, vec3 wo)
     vec3 h = normalize3(H);
     realN x = low_one_minus_cos_h(H);
     realN lobe = exp(-p->c * log1p(p->b * x))                     /* S / a (eq 11) */
-                 * low_fresnel(p->eta, dot3(wi, h)) * low_vcavity(wi, wo, h)
+                 * low_fresnel(p->eta, half_cos(wi, wi, wo, h)) * vcavity_G(wi, wo, h)
                  / (PI_R * wi.z * wo.z);                          /* eq 15 */
     maskN ok = (wi.z > 0) & (wo.z > 0);
     spec f;
@@ -144,7 +138,7 @@ inline BSample low_microfacet_sample(const Params *p, vec3 wo, rand4 u)
     realN ninv = low_h_norm_inv(p->b, p->c);
     s.pdf = exp(-p->c * log1p(p->b * x)) * ninv / (4 * oh);
     maskN ok = (s.wi.z > 0) & (wo.z > 0) & (oh > 0);
-    realN g = low_fresnel(p->eta, oh) * low_vcavity(s.wi, wo, h) * 4 * oh
+    realN g = low_fresnel(p->eta, oh) * vcavity_G(s.wi, wo, h) * 4 * oh
               / (ninv * PI_R * wo.z);
     for (int c = 0; c < CHANNELS; ++c)
         s.weight.c[c] = p->a[c] * g;

@@ -89,10 +89,7 @@ inline realN mf_G(Microfacet m, vec3 wi, vec3 wo, vec3 h)
 #elif MF_MASKING == MASKING_SEPARABLE
     return mf_G1(m, wi) * mf_G1(m, wo);
 #elif MF_MASKING == MASKING_VCAVITY
-    /* Cook-Torrance 1982 eq 2 with the indicator of wo . h > 0 (rounding can make it <= 0
-     * when wi ~ -wo) */
-    realN oh = dot3(wo, h);
-    return sel(fmin((realN)1, 2 * h.z * fmin(wi.z, wo.z) / oh), (realN)0, oh <= 0);
+    return vcavity_G(wi, wo, h);
 #else
     return (realN)1;
 #endif
@@ -119,7 +116,7 @@ inline spec microfacet_eval(const Params *p, vec3 wi, vec3 wo)
     Microfacet m = mf_distribution(p);
     vec3 h = normalize3(add3(wi, wo));
     realN lobe = MF(D)(m, h) * mf_G(m, wi, wo, h) / (4 * wi.z * wo.z);
-    realN c_d = dot3(wi, h);
+    realN c_d = half_cos(wi, wi, wo, h);
     maskN ok = (wi.z > 0) & (wo.z > 0);
     spec f;
     for (int c = 0; c < CHANNELS; ++c) {
