@@ -113,13 +113,19 @@ def _pick(selector: str | None):
     sel = str(selector).strip()
     if ":" in sel and all(part.isdigit() for part in sel.split(":", 1)):
         pi, di = (int(x) for x in sel.split(":", 1))
-        for info, d in devs:
-            if (info.platform_index, info.device_index) == (pi, di):
-                return info, d
+        matches = [(i, d) for i, d in devs if (i.platform_index, i.device_index) == (pi, di)]
     else:
-        for info, d in devs:
-            if sel.lower() in info.name.lower() or sel.lower() in info.platform.lower():
-                return info, d
+        matches = [(i, d) for i, d in devs
+                   if sel.lower() in i.name.lower() or sel.lower() in i.platform.lower()]
+    broken = []
+    for info, d in matches:       # the first match whose compiler works
+        err = compiler_error((info.platform_index, info.device_index))
+        if err is None:
+            return info, d
+        broken.append(f"{info.selector} {info.name} [{info.platform}]: {err}")
+    if broken:
+        raise DeviceError(f"device={selector!r} matches only devices whose OpenCL compiler "
+                          f"fails: {'; '.join(broken)}")
     valid = ", ".join(f"{i.selector} ({i.name})" for i, _ in devs)
     raise DeviceError(f"device={selector!r} matches no OpenCL device; valid: {valid}")
 

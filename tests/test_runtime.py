@@ -121,3 +121,16 @@ def test_bad_width_environment_variable_is_named(monkeypatch):
     monkeypatch.setenv("CLBRDF_WIDTH", "abc")
     with pytest.raises(clbrdf.ParameterError, match=r"CLBRDF_WIDTH='abc' is not valid.*1, 2, 4, 8, 16"):
         clbrdf.Model("ggx")
+
+
+def test_selector_of_a_broken_device_says_so():
+    """A selector that matches only a device whose compiler fails (here PyPI's PoCL, LLVM 14, on
+    a CPU it does not know) names the device and the compiler's error."""
+    from clbrdf.device import compiler_error, list_devices
+    broken = [d for d in list_devices() if compiler_error((d.platform_index, d.device_index))]
+    if not broken:
+        pytest.skip("every OpenCL device here compiles")
+    d = broken[0]
+    with pytest.raises(clbrdf.DeviceError, match=rf"device='{d.selector}' matches only devices "
+                                                 rf"whose OpenCL compiler fails: {d.selector} "):
+        clbrdf.get_device(d.selector)
