@@ -161,8 +161,9 @@ def _axes(table) -> list[str]:
     return list(_meta(table)["axes"])
 
 
-def _other_axes(table) -> list[str]:
-    return [a for a in _axes(table) if a != "mu"]
+def _avg_axes(table) -> list[str]:
+    """The axes of E_avg: all but mu and phi (channel last for an RGB table)."""
+    return [a for a in _axes(table) if a not in ("mu", "phi")]
 
 
 def paths_for(out) -> dict:
@@ -198,7 +199,7 @@ def _write_csv(f, table):
 
 
 def _write_avg_csv(f, table):
-    names = _other_axes(table)
+    names = _avg_axes(table)
     f.write("# " + table["metadata"].replace("\n", " ") + "\n")
     f.write(",".join(names + ["E_avg", "E_avg_stderr"]) + "\n")
     A, S = np.asarray(table["E_avg"]), np.asarray(table["E_avg_stderr"])
@@ -242,87 +243,112 @@ def _title(meta) -> str:
                       for k, v in meta.get("fixed", {}).items()
                       if k not in meta.get("options", {}) and k not in axes)
     head = meta.get("model", "?") + (f" ({opts})" if opts else "")
+    if meta.get("preset"):
+        head += f", preset {meta['preset'].get('material')} ({meta['preset'].get('source')})"
     est = meta.get("estimator", "?") + (" + QMC" if meta.get("qmc") else "")
     line2 = (f"{fixed}; " if fixed else "") + (f"{meta.get('samples')} samples/point, {est}, "
                                                f"{meta.get('precision')} precision")
     return f"Directional albedo E: {head}\n{line2}"
 
 
-def plot_table(table: dict, fileobj) -> None:
-    """PNG chart: E(mu) for a handful of values of the second axis, and E_avg along it."""
+CHANNEL_NAMES = ("R", "G", "B")
+
+
+def table_figure(table: dict):
+    """The chart as a matplotlib Figure: per channel (one row each for an RGB table), E(mu) for
+    up to 7 values of the first parameter (or phi) axis, and E_avg along the first parameter
+    axis; further axes are shown at their first value, which the title states."""
     import matplotlib
     from matplotlib import cm, colors
     from matplotlib.figure import Figure
 
     meta = _meta(table)
     names = _axes(table)
-    others = _other_axes(table)
+    rgb = "channel" in names
+    e_axes = [a for a in names if a not in ("mu", "channel")]      # E's axes besides mu
+    a_axes = [a for a in names if a not in ("mu", "phi", "channel")]
     spacing = meta.get("spacing", {})
-    E = np.asarray(table["E"], dtype=float)
-    S = np.asarray(table["E_stderr"], dtype=float)
     mu = np.asarray(table["mu"], dtype=float)
-    # move mu first, then the second axis; further axes are shown at their first value
-    order = [names.index("mu")] + [names.index(a) for a in others]
-    E, S = np.transpose(E, order), np.transpose(S, order)
-    A = np.asarray(table["E_avg"], dtype=float)
-    AS = np.asarray(table["E_avg_stderr"], dtype=float)
-    extra = others[1:]
-    while E.ndim > 2:
-        E, S = E[..., 0], S[..., 0]
-    while A.ndim > 1:
-        A, AS = A[..., 0], AS[..., 0]
-
-    fig = Figure(figsize=(11, 4.6), dpi=110, layout="constrained")
+    E_all = np.asarray(table["E"], dtype=float)
+    S_all = np.asarray(table["E_stderr"], dtype=float)
+    A_all = np.asarray(table["E_avg"], dtype=float)
+    AS_all = np.asarray(table["E_avg_stderr"], dtype=float)
+    nrows = 3 if rgb else 1
+    fig = Figure(figsize=(11, 4.6 * nrows), dpi=110, layout="constrained")
     title = _title(meta)
-    if extra:
-        title += "; " + ", ".join(f"{a}={float(np.asarray(table[a])[0]):g}" for a in extra)
+    sliced = sorted(set(e_axes[1:]) | set(a_axes[1:]), key=names.index)
+    if sliced:
+        title += "; shown at " + ", ".join(f"{a}={float(np.asarray(table[a])[0]):g}"
+                                            for a in sliced)
     fig.suptitle(title, fontsize=11)
-    if not others:
-        ax = fig.add_subplot(1, 1, 1)
-        ax.plot(mu, E, "o-", ms=3, color="C0", label=r"$E(\mu)$")
-        ax.fill_between(mu, E - 2 * S, E + 2 * S, color="C0", alpha=0.25, lw=0)
-        ax.axhline(float(A), color="C1", ls="--", label=f"$E_{{avg}}$ = {float(A):.4f}")
-        ax.set_xlabel(r"$\mu = \cos\theta_o$")
-        ax.set_ylabel(r"$E(\mu)$")
-        ax.set_xlim(0, 1)
-        ax.grid(alpha=0.3)
-        ax.legend()
-    else:
-        p = others[0]
+    cmap = matplotlib.colormaps["viridis"]
+    for row in range(nrows):
+        E, S = (E_all[..., row], S_all[..., row]) if rgb else (E_all, S_all)
+        A, AS = (A_all[..., row], AS_all[..., row]) if rgb else (A_all, AS_all)
+        lead = f"channel {CHANNEL_NAMES[row]}: " if rgb else ""
+        order = [names.index("mu")] + [names.index(a) for a in e_axes]
+        E, S = np.transpose(E, order), np.transpose(S, order)
+        while E.ndim > 2:
+            E, S = E[..., 0], S[..., 0]
+        while A.ndim > 1:
+            A, AS = A[..., 0], AS[..., 0]
+        if not e_axes:
+            ax = fig.add_subplot(nrows, 1, row + 1)
+            ax.plot(mu, E, "o-", ms=3, color="C0", label=r"$E(\mu)$")
+            ax.fill_between(mu, E - 2 * S, E + 2 * S, color="C0", alpha=0.25, lw=0)
+            ax.axhline(float(A), color="C1", ls="--", label=f"$E_{{avg}}$ = {float(A):.4f}")
+            ax.set_xlabel(r"$\mu = \cos\theta_o$")
+            ax.set_ylabel(r"$E(\mu)$")
+            ax.set_title(lead.rstrip(": "), fontsize=10)
+            ax.set_xlim(0, 1)
+            ax.grid(alpha=0.3)
+            ax.legend()
+            continue
+        p = e_axes[0]
         pv = np.asarray(table[p], dtype=float)
         log = spacing.get(p) == "log"
-        ax1, ax2 = fig.add_subplot(1, 2, 1), fig.add_subplot(1, 2, 2)
+        ax1, ax2 = fig.add_subplot(nrows, 2, 2 * row + 1), fig.add_subplot(nrows, 2, 2 * row + 2)
         n = len(pv)
         pick = np.unique(np.round(np.linspace(0, n - 1, min(n, 7))).astype(int))
         lo, hi = float(pv.min()), float(pv.max())
         if hi <= lo:
             hi = lo + (abs(lo) or 1) * 1e-6
         norm = colors.LogNorm(lo, hi) if log and lo > 0 else colors.Normalize(lo, hi)
-        cmap = matplotlib.colormaps["viridis"]
         for j in pick:
             c = cmap(norm(pv[j]))
             ax1.plot(mu, E[:, j], "-", color=c, lw=1.6, label=f"{p} = {pv[j]:.3g}")
             ax1.fill_between(mu, E[:, j] - 2 * S[:, j], E[:, j] + 2 * S[:, j], color=c,
                              alpha=0.25, lw=0)
-        sm = cm.ScalarMappable(norm=norm, cmap=cmap)
-        cb = fig.colorbar(sm, ax=ax1, pad=0.01)
+        cb = fig.colorbar(cm.ScalarMappable(norm=norm, cmap=cmap), ax=ax1, pad=0.01)
         cb.set_label(p)
         ax1.legend(fontsize=8, loc="best", ncol=1 if len(pick) <= 4 else 2)
         ax1.set_xlabel(r"$\mu = \cos\theta_o$")
         ax1.set_ylabel(r"$E(\mu)$")
-        ax1.set_title(f"$E(\\mu)$ for {len(pick)} of {n} values of {p} "
+        ax1.set_title(f"{lead}$E(\\mu)$ for {len(pick)} of {n} values of {p} "
                       f"(bands: $\\pm 2$ stderr)", fontsize=10)
         ax1.set_xlim(0, 1)
         ax1.grid(alpha=0.3)
-        ax2.plot(pv, A, "o-", ms=3, color="C3")
-        ax2.fill_between(pv, A - 2 * AS, A + 2 * AS, color="C3", alpha=0.25, lw=0)
-        if log:
-            ax2.set_xscale("log")
-        ax2.set_xlabel(p)
-        ax2.set_ylabel(r"$E_{avg} = 2\int_0^1 E(\mu)\,\mu\,d\mu$")
-        ax2.set_title(f"$E_{{avg}}$ against {p}", fontsize=10)
+        ax2.set_ylabel(r"$E_{avg}$")
         ax2.grid(alpha=0.3)
-    fig.savefig(fileobj, format="png")
+        if not a_axes:           # a phi axis only: E_avg is one number
+            ax2.axhline(float(A), color="C3", ls="--")
+            ax2.set_title(f"{lead}$E_{{avg}}$ = {float(A):.5f} (averaged over azimuth)",
+                          fontsize=10)
+            continue
+        q = a_axes[0]
+        qv = np.asarray(table[q], dtype=float)
+        ax2.plot(qv, A, "o-", ms=3, color="C3")
+        ax2.fill_between(qv, A - 2 * AS, A + 2 * AS, color="C3", alpha=0.25, lw=0)
+        if spacing.get(q) == "log":
+            ax2.set_xscale("log")
+        ax2.set_xlabel(q)
+        ax2.set_title(f"{lead}$E_{{avg}}$ against {q}", fontsize=10)
+    return fig
+
+
+def plot_table(table: dict, fileobj) -> None:
+    """PNG chart (table_figure)."""
+    table_figure(table).savefig(fileobj, format="png")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -355,7 +381,7 @@ def summary(table: dict, seconds: float, written) -> str:
         f"  E      min {E.min():.5f} ({at(imin)}), max {E.max():.5f} ({at(imax)}), "
         f"max stderr {np.max(table['E_stderr']):.1e}",
     ]
-    others = [n for n in names if n != "mu"]
+    others = _avg_axes(table)
     if others and A.ndim:
         j0 = np.unravel_index(int(np.argmin(A)), A.shape)
         j1 = np.unravel_index(int(np.argmax(A)), A.shape)

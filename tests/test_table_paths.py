@@ -3,6 +3,7 @@
 errors; 5 sigma over the few hundred cells here has a false-alarm rate below 1e-4), and E_avg
 integrates over the azimuth where E depends on it."""
 import itertools
+import json
 
 import numpy as np
 import pytest
@@ -113,3 +114,32 @@ def test_python_table_metadata_is_complete():
     assert meta["width"] == 4
     for k in ("device", "platform", "driver", "version", "environment", "precision", "seed"):
         assert k in meta, k
+
+
+@pytest.mark.parametrize("case", ["rgb-axis-first", "anisotropic-phi", "schlick-scratch",
+                                  "preset-spectral-axis"])
+def test_chart_and_files_of_every_axis_kind(case, tmp_path):
+    """The chart has one row per channel of an RGB table and says at which value of further
+    axes it is drawn; .npz, .csv and .avg.csv are written for every kind of axis (phi included:
+    E_avg has no phi axis)."""
+    from clbrdf import tables
+    name, axes, fixed = CASES[case]
+    t = albedo_table(name, axes, samples=256, **fixed)
+    fig = tables.table_figure(t)
+    rgb = "channel" in json.loads(t["metadata"])["axes"]
+    rows = 3 if rgb else 1
+    titles = [ax.get_title() for ax in fig.axes]
+    if rgb:
+        for c in "RGB":
+            assert any(ti.startswith(f"channel {c}") for ti in titles), titles
+    assert sum(1 for ax in fig.axes if ax.get_label() != "<colorbar>") >= 2 * rows
+    sliced = [a for a in list(axes)[2:] if a != "mu"] if list(axes)[0] != "mu" else list(axes)[2:]
+    sup = fig._suptitle.get_text()
+    for a in sliced:
+        assert f"{a}=" in sup, (a, sup)
+    for suffix in (".npz", ".csv"):
+        written = tables.save_table(t, tmp_path / f"t{suffix}")
+        assert all(p.exists() for p in written)
+    avg = (tmp_path / "t.avg.csv").read_text().splitlines()
+    assert "phi" not in avg[1].split(",")
+    print(tables.summary(t, 0.0, written))
