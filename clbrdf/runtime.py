@@ -45,6 +45,11 @@ def check_int(name: str, value, lo: int, hi: int, text: str | None = None) -> in
     return int(value)
 
 
+def ndrange_with(items: int, local: tuple) -> tuple:
+    """(global size, local size) for ``items`` work-items with a given local size."""
+    return (-(-items // local[0]) * local[0],), local
+
+
 def ndrange(items: int, device: Device):
     """(global size, local size) for ``items`` work-items; the kernels ignore the padding items.
 
@@ -168,6 +173,9 @@ def run_albedo(m, shape, wo_rows, *, estimator: str, samples: int, seed: int, qm
     bar = progress_bar(npts * plan.samples, progress)
     budget = min(FIRST_LAUNCH, LAUNCH_SAMPLES)
     t0 = time.perf_counter()
+    # one local size for every launch of the job (PoCL compiles a kernel per local size; the
+    # split into launches must not add compilations)
+    local = ndrange(npts * plan.blocks, m.device)[1]
     point, block = 0, 0            # next block to launch (block in the point's 0 .. blocks - 1)
     while point < npts:
         budget_blocks = max(1, budget // plan.block_len)
@@ -185,7 +193,7 @@ def run_albedo(m, shape, wo_rows, *, estimator: str, samples: int, seed: int, qm
         out = np.empty(k * nb * nch * 3, dtype=m.dtype)
         bo = cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes)
         tl = time.perf_counter()
-        kern(q, *ndrange(k * nb, m.device), bp, bw, np.uint64(k), np.uint64(point),
+        kern(q, *ndrange_with(k * nb, local), bp, bw, np.uint64(k), np.uint64(point),
              np.uint32(block), np.uint32(nb), np.uint32(plan.per_stream), lo, hi,
              np.uint32(plan.bps), np.uint32(plan.block_len), bo)
         cl.enqueue_copy(q, out, bo)
