@@ -288,10 +288,12 @@ def check_chi2(m, samples, seed, out_dir=None):
                 f"family {ALPHA:g})", worst)
     if not passed and out_dir is not None:
         chk.details["files"] = _chi2_plots(r, panels, wo, out_dir, m)
-    ints = [(x[0].total, x[0].above, x[1]) for x in results]
-    z = [abs(t - a) / math.sqrt(max(a * (1 - a), 1 / samples) / samples) for t, a, _ in ints]
+    # the binomial sd of the fraction above, and the quadrature's own error (two orders)
+    ints = [(x[0].total, x[0].above, x[1], x[0].total_err) for x in results]
+    z = [abs(t - a) / math.sqrt(max(a * (1 - a), 1 / samples) / samples + e * e)
+         for t, a, _, e in ints]
     i = int(np.argmax(z))
-    over = max(t for t, _, _ in ints)
+    over = max(t - e for t, _, _, e in ints)
     zlim = float(sps.norm.isf(level / 2))
     pdf_chk = Check("pdf integral", z[i] < zlim + 1 and over <= 1 + 1e-3, z[i],
                     f"|int pdf - fraction above| < {zlim + 1:.2f} sd and int pdf <= 1.001",
