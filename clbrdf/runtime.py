@@ -61,12 +61,11 @@ def ndrange(items: int, device: Device):
     for small launches so that every compute unit gets work groups."""
     cu = device.info.compute_units
     if not device.info.is_gpu:
-        return ((-(-items // LOCAL_SIZE) * LOCAL_SIZE,), (LOCAL_SIZE,)) \
-            if items >= LOCAL_SIZE * 4 * cu else ((items,), (1,))
+        return ndrange_with(items, (LOCAL_SIZE,) if items >= LOCAL_SIZE * 4 * cu else (1,))
     local = 1
     while local < LOCAL_SIZE and local * 2 * 4 * cu <= items:
         local *= 2
-    return (-(-items // local) * local,), (local,)
+    return ndrange_with(items, (local,))
 
 
 def kernel(prog, name: str):

@@ -10,7 +10,6 @@ that integrates the kernel pdf with it checks the kernel against mathematics, no
 from __future__ import annotations
 
 import itertools
-import math
 
 import numpy as np
 from scipy import stats as sps
