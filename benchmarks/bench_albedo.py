@@ -33,7 +33,7 @@ Rounds are interleaved ([all rows] x rounds, the order rotated each round) after
 of every row; the table reports the median throughput and its range over the rounds. Compile
 time of each clbrdf program (PoCL's on-disk kernel cache disabled unless --pocl-cache) and the
 first (warm-up) call of every row are reported separately. The warm-up results are checked
-against each other (per-mu z-scores, combined standard errors) and against clbrdf.reference's
+against each other (per-mu z-scores, combined standard errors) and against clbrdf.ref.microfacet's
 deterministic double-precision integral.
 
     python benchmarks/bench_albedo.py                 # print the table
@@ -425,7 +425,7 @@ def agreement(rows, ref, ref_row, reference):
         tag = "" if getattr(r, "same_estimator", True) else " (other estimator)"
         out.append(f"| {r.key}{tag} | {m:.6f} | {e:.1e} | {zc} | {chi} | {zr} |")
     if reference is not None:
-        out.append(f"| clbrdf.reference (deterministic, double) | {float(np.mean(reference)):.6f} | - | - | - | - |")
+        out.append(f"| clbrdf.ref.microfacet (deterministic, double) | {float(np.mean(reference)):.6f} | - | - | - | - |")
     return out
 
 
@@ -661,7 +661,7 @@ def main(argv=None):
 
     reference = None
     if not args.no_reference:
-        from clbrdf import reference as R
+        from clbrdf.ref import microfacet as R
         reference = np.array([R.albedo("ggx", float(m), alpha=A)[0] for m in mus])
 
     others = None

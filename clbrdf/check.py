@@ -135,7 +135,7 @@ def _pairs(m):
 def _values(m, seed):
     """eval and pdf over the pairs, samples at every grid direction: arrays and their points."""
     wi, wo = _pairs(m)
-    f = np.asarray(m.eval(wi, wo), float)
+    f = np.asarray(m.eval(wo, wi), float)
     p = np.asarray(m.pdf(wo, wi), float)
     mus, phis = _mus(m.precision), _phis(m)
     M, P = np.meshgrid(mus, phis, indexing="ij")
@@ -191,7 +191,7 @@ def check_weight(m, v, perturbations: int = 4) -> Check:
     ref = _double_twin(m)
 
     def ratio(a, b):
-        f = _rowwise(np.asarray(ref.eval(a, b), float))
+        f = _rowwise(np.asarray(ref.eval(b, a), float))
         pe = np.asarray(ref.pdf(b, a), float)
         return f * a[:, 2:3] / np.where(pe > 0, pe, np.inf)[:, None]
     want = ratio(wi, wo)
@@ -336,7 +336,7 @@ def _chi2_plots(r, panels, wo, out_dir, m):
 
 
 def quadrature_albedo(m, wo, hmap, panels):
-    """E(wo) per channel by integrating eval(wi, wo) cos(theta_i) over the panels of hmap
+    """E(wo) per channel by integrating eval(wo, wi) cos(theta_i) over the panels of hmap
     (Gauss-Legendre of order 4 per panel on 2 ns x 2 nt panels): a deterministic value that does
     not use the sampler; its error is taken as the change from ns x nt panels plus the change
     from order 3 to 4 there."""
@@ -344,7 +344,7 @@ def quadrature_albedo(m, wo, hmap, panels):
     out = []
     for c in range(m.channels):
         def f(w, c=c):
-            v = np.asarray(m.eval(w, np.broadcast_to(wo, w.shape)), float)
+            v = np.asarray(m.eval(np.broadcast_to(wo, w.shape), w), float)
             return (v if m.channels == 1 else v[..., c]) * w[..., 2]
         hi = S.panel_integrals(hmap, f, 2 * ns, 2 * nt, 4).sum()
         lo = S.panel_integrals(hmap, f, ns, nt, 4).sum()
@@ -445,3 +445,34 @@ def check(model, *, samples: int = 1 << 16, seed: int = 0, precision: str = "sin
     checks += [check_albedo(m, samples, seed), check_stderr(m, seed, samples),
                check_energy(m, samples, seed)]
     return CheckReport(m.name, m.describe(), m.precision, checks, time.perf_counter() - t0)
+
+
+def configurations(name: str) -> list[tuple[str, dict]]:
+    """(id, keywords) of the configurations that the conformance battery runs for model
+    ``name``, drawn from its description: the defaults, RGB, each option value, each optional
+    parameter added, and up to three presets (double precision is a keyword of its own)."""
+    from . import presets
+    from .models import get_spec
+    from .spec import ParameterError
+    spec = get_spec(name)
+    base, _ = spec.configure()
+    opts = dict(base.options)
+    out = [("defaults", {}), ("rgb", {"channels": 3})]
+    for o in spec.options:
+        out += [(f"{o.name}={c}", {o.name: c}) for c in o.choices if c != opts.get(o.name)]
+    out += [(f"+{p.name}", {p.name: p.default}) for p in spec.params
+            if p.name not in base.param_names and not p.computed]
+    for mat in presets.materials(name)[::37][:3]:
+        out.append((f"preset={mat}", {"preset": mat}))
+    valid = []
+    for cid, kw in out:
+        try:
+            kw2 = dict(kw)
+            if "preset" in kw2:
+                p = presets.get(name, kw2.pop("preset"))
+                kw2 = {**p.options, **p.params, "channels": 3}
+            spec.configure(**kw2)
+        except ParameterError:
+            continue                    # e.g. layer-2 parameters of schlick without material=double
+        valid.append((cid, kw))
+    return valid

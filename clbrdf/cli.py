@@ -300,7 +300,7 @@ def cmd_eval(args) -> int:
     wi = check_directions("wi", parse_vector(args.wi, "wi"))
     wo = check_directions("wo", parse_vector(args.wo, "wo"))
     m = _model(spec.name, args, params)
-    f = np.asarray(m.eval(wi, wo), dtype=float)
+    f = np.asarray(m.eval(wo, wi), dtype=float)
     value = f.tolist()
     if args.json:
         d = m.describe()
@@ -483,7 +483,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_models)
 
     p = sub.add_parser("eval", parents=[dev], help="BRDF value for one pair of directions",
-                       description="Print the BRDF value f(wi, wo) in 1/sr.")
+                       description="Print the BRDF value f(wo, wi) in 1/sr.")
     model_arg(p)
     p.add_argument("--wi", required=True, action=_Once, metavar="X,Y,Z", help="direction to the light (unit, Z > 0)")
     p.add_argument("--wo", required=True, action=_Once, metavar="X,Y,Z", help="direction to the viewer (unit, Z > 0)")
@@ -493,7 +493,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_eval)
 
     p = sub.add_parser("albedo", parents=[dev], help="directional albedo E(mu) by Monte Carlo",
-                       description="Directional albedo E(wo) = integral of f(wi, wo) cos(theta_i) "
+                       description="Directional albedo E(wo) = integral of f(wo, wi) cos(theta_i) "
                                    "over wi, for wo with cos(theta_o) = mu and azimuth phi.")
     model_arg(p)
     p.add_argument("--mu", required=True, action=_Once, metavar="LIST",

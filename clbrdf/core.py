@@ -35,7 +35,7 @@ class Model:
     """A model configuration on a device.
 
     >>> m = Model("ggx", alpha=0.3, fresnel="schlick", f0=0.04)
-    >>> m.eval(wi, wo)                  # BRDF values, 1/sr
+    >>> m.eval(wo, wi)                  # BRDF values, 1/sr
     >>> wi, weight, pdf = m.sample(wo, seed=1)
 
     Parameters may be arrays; they broadcast with the directions. ``precision`` is ``single`` or
@@ -146,21 +146,21 @@ class Model:
             raise ParameterError(f"parameters and directions do not broadcast: {e}") from None
 
     # ---- public API ----
-    def eval(self, wi, wo) -> np.ndarray:
-        """BRDF value f(wi, wo) in 1/sr (shape (..., 3) for an RGB model); 0 where either
+    def eval(self, wo, wi) -> np.ndarray:
+        """BRDF value f(wo, wi) in 1/sr (shape (..., 3) for an RGB model); 0 where either
         direction is below the horizon."""
-        wi = check_directions("wi", wi, allow_below=True)
         wo = check_directions("wo", wo, allow_below=True)
-        shape = self._shape(wi, wo)
-        (f,) = self._batch("eval_batch", shape, [np.moveaxis(wi, -1, 0), np.moveaxis(wo, -1, 0)],
+        wi = check_directions("wi", wi, allow_below=True)
+        shape = self._shape(wo, wi)
+        (f,) = self._batch("eval_batch", shape, [np.moveaxis(wo, -1, 0), np.moveaxis(wi, -1, 0)],
                            [self.channels])
         return self._channel_axis(f)
 
     def pdf(self, wo, wi) -> np.ndarray:
         """Density (1/sr) of wi under the model's sampler, given wo."""
-        wi = check_directions("wi", wi, allow_below=True)
         wo = check_directions("wo", wo, allow_below=True)
-        shape = self._shape(wi, wo)
+        wi = check_directions("wi", wi, allow_below=True)
+        shape = self._shape(wo, wi)
         (p,) = self._batch("pdf_batch", shape, [np.moveaxis(wo, -1, 0), np.moveaxis(wi, -1, 0)], [1])
         return p[0]
 
@@ -233,7 +233,7 @@ class AlbedoResult:
 
 def albedo(m: Model, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 << 16, seed: int = 0,
            qmc: bool = False, progress: bool = False) -> AlbedoResult:
-    """Directional albedo E(wo) = integral f(wi, wo) cos(theta_i) dwi by Monte Carlo.
+    """Directional albedo E(wo) = integral f(wo, wi) cos(theta_i) dwi by Monte Carlo.
 
     ``mu`` = cos(theta_o) and ``phi`` (azimuth of wo) broadcast with the model's parameters.
     ``estimator``: ``uniform`` / ``cosine`` hemisphere sampling, ``brdf`` importance sampling,
@@ -384,7 +384,7 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
             "precision": precision, "width": m.width, "device": dev.name,
             "platform": dev.platform, "driver": dev.driver, "version": __version__,
             "environment": _runtime_environment(), "seconds": time.perf_counter() - t0,
-            "E": "E(mu, phi) = int f(wi, wo) cos(theta_i) dwi" + ("" if "phi" in names else
+            "E": "E(mu, phi) = int f(wo, wi) cos(theta_i) dwi" + ("" if "phi" in names else
                                                                     " at phi = 0"),
             "E_avg": f"(1/pi) int E(wo) cos(theta_o) dwo: Gauss-Legendre with {avg_nodes} nodes "
                      f"in mu" + (f" x {n_phi} azimuths (trapezoid)" if n_phi > 1 else

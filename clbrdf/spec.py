@@ -92,6 +92,8 @@ class ModelSpec:
     # (defines, parameter values) -> whether E(wo) may depend on the azimuth of wo; None: never.
     # Averages over wo (E_avg) integrate over the azimuth where it does.
     anisotropic_fn: Callable | None = None
+    # the float64 reference: a module of clbrdf/ref/ whose REFERENCES has this model
+    ref: str = ""
 
     def anisotropic(self, cfg: "Config", values: dict) -> bool:
         return bool(self.anisotropic_fn and self.anisotropic_fn(dict(cfg.defines), values))

@@ -1,6 +1,6 @@
 /* Ashikhmin & Shirley 2000, "An anisotropic Phong BRDF model" (JGT 5(2)).
  *
- *   f(wi, wo) = [ks] rho_s + [rho_d] + [kd / pi]
+ *   f(wo, wi) = [ks] rho_s + [rho_d] + [kd / pi]
  *   rho_s = sqrt((nu+1)(nv+1)) / (8 pi) (n.h)^e F(k.h) / ((k.h) max(n.wi, n.wo))       (eq 16)
  *   e     = (nu h_u^2 + nv h_v^2) / (1 - (n.h)^2) = nu cos^2 phi_h + nv sin^2 phi_h
  *   rho_d = 28 rd / (23 pi) (1 - rs) (1 - (1 - n.wi/2)^5) (1 - (1 - n.wo/2)^5)         (eq 14)
@@ -87,7 +87,7 @@ inline realN as_diffuse(const Params *p, realN ci, realN co, int ch)
 }
 
 /* f given h (any positive multiple) and k.h. */
-inline spec as_eval_h(const Params *p, vec3 wi, vec3 wo, vec3 h, realN kh)
+inline spec as_eval_h(const Params *p, vec3 wo, vec3 wi, vec3 h, realN kh)
 {
     realN s = as_norm(p) * (realN)(0.125) * INV_PI_R * as_lobe(p, h)
               / (kh * fmax(wi.z, wo.z));                                   /* eq 16 */
@@ -103,10 +103,10 @@ inline spec as_eval_h(const Params *p, vec3 wi, vec3 wo, vec3 h, realN kh)
     return f;
 }
 
-inline spec ashikhmin_shirley_eval(const Params *p, vec3 wi, vec3 wo)
+inline spec ashikhmin_shirley_eval(const Params *p, vec3 wo, vec3 wi)
 {
     vec3 s = add3(wi, wo);
-    return as_eval_h(p, wi, wo, s, (realN)0.5 * sqrt(dot3(s, s)));
+    return as_eval_h(p, wo, wi, s, (realN)0.5 * sqrt(dot3(s, s)));
 }
 
 /* Exact albedo of the diffuse terms of channel ch at cos_o: the integral of
@@ -191,7 +191,7 @@ inline BSample ashikhmin_shirley_sample(const Params *p, vec3 wo, rand4 u)
     kh = sel(kh, (realN)0.5 * sqrt(dot3(hs, hs)), diff);
     s.pdf = as_pdf_h(p, wo, s.wi, h, kh);
     maskN ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
-    s.weight = spec_scale(as_eval_h(p, s.wi, wo, h, kh), s.wi.z / s.pdf);
+    s.weight = spec_scale(as_eval_h(p, wo, s.wi, h, kh), s.wi.z / s.pdf);
 #else
     /* f cos_i / pdf = ks F(k.h) cos_i / max(cos_i, cos_o) (eq 16 over eq 18) */
     maskN ok = (s.wi.z > 0) & (wo.z > 0) & (kh > 0);

@@ -233,7 +233,7 @@ inline realN erfinv_r(realN x)
 
 /* wi.h = wo.h for h = normalize(wi + wo): the dot product, or |wi + wo| / 2 (the same for unit
  * directions, > 0) where the rounded dot product is <= 0 (wi ~ -wo at grazing angles). */
-inline realN half_cos(vec3 w, vec3 wi, vec3 wo, vec3 h)
+inline realN half_cos(vec3 w, vec3 wo, vec3 wi, vec3 h)
 {
     realN c = dot3(w, h);
     vec3 s = add3(wi, wo);
@@ -242,9 +242,9 @@ inline realN half_cos(vec3 w, vec3 wi, vec3 wo, vec3 h)
 
 /* V-cavity masking-shadowing, Cook & Torrance 1982 eq 2: min(1, 2 (n.h) min(n.wi, n.wo) / wo.h),
  * with wo.h from half_cos: a rounded wo.h <= 0 used to give G = 0 where the true G is 1. */
-inline realN vcavity_G(vec3 wi, vec3 wo, vec3 h)
+inline realN vcavity_G(vec3 wo, vec3 wi, vec3 h)
 {
-    return fmin((realN)1, 2 * h.z * fmin(wi.z, wo.z) / half_cos(wo, wi, wo, h));
+    return fmin((realN)1, 2 * h.z * fmin(wi.z, wo.z) / half_cos(wo, wo, wi, h));
 }
 
 #endif

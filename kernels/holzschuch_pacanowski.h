@@ -56,7 +56,7 @@ inline realN hp_diffraction_scale(const Params *p, int c, realN *albedo)
 
 /* f with the half vector h given (the sampler passes the h it drew: recomputing it from a
  * rounded wi misses a near-mirror lobe at grazing angles in single precision). */
-inline spec hp_eval_h(const Params *p, vec3 wi, vec3 wo, vec3 h)
+inline spec hp_eval_h(const Params *p, vec3 wo, vec3 wi, vec3 h)
 {
     Microfacet m = {p->sigma, p->sigma, p->p};
     realN G = 1 / ((1 + exppow_Lambda(m, wi)) * (1 + exppow_Lambda(m, wo)));   /* eq 6-7 */
@@ -77,9 +77,9 @@ inline spec hp_eval_h(const Params *p, vec3 wi, vec3 wo, vec3 h)
     return f;
 }
 
-inline spec holzschuch_pacanowski_eval(const Params *p, vec3 wi, vec3 wo)
+inline spec holzschuch_pacanowski_eval(const Params *p, vec3 wo, vec3 wi)
 {
-    return hp_eval_h(p, wi, wo, normalize3(add3(wi, wo)));
+    return hp_eval_h(p, wo, wi, normalize3(add3(wi, wo)));
 }
 
 /* Probabilities of the reflection lobe (*ps) and of the cosine lobes (returned). */
@@ -126,7 +126,7 @@ inline BSample holzschuch_pacanowski_sample(const Params *p, vec3 wo, rand4 u)
     vec3 hh = select3(normalize3(add3(wc, wo)), h, refl);   /* the drawn h for a lobe sample */
     s.pdf = hp_pdf_h(p, wo, s.wi, hh);
     maskN ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
-    s.weight = spec_scale(hp_eval_h(p, s.wi, wo, hh), s.wi.z / s.pdf);
+    s.weight = spec_scale(hp_eval_h(p, wo, s.wi, hh), s.wi.z / s.pdf);
     s.weight = spec_sel(spec_splat((realN)0), s.weight, ok);
     s.pdf = sel((realN)0, s.pdf, ok);
     return s;

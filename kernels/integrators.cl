@@ -1,5 +1,6 @@
 /* Generic kernels, instantiated per model configuration. They know no model: a model header
- * provides MODEL_eval, MODEL_pdf and MODEL_sample on a Params struct.
+ * provides MODEL_eval, MODEL_pdf and MODEL_sample on a Params struct, directions in the order
+ * (wo, wi) everywhere (docs/adding-a-model.md).
  *
  * The host defines before this file:
  *   PARAMS(X, XS)  X(name, row) for each scalar parameter of the configuration, XS(name, row)
@@ -103,13 +104,13 @@ inline void store_dir(vec3 v, global real_t *D, ulong stride, ulong i)
 
 /* ---- batch kernels: work-item g handles queries [g W, g W + W); n is padded to a multiple of W ---- */
 
-__kernel void eval_batch(const global real_t *P, const global real_t *WI, const global real_t *WO,
+__kernel void eval_batch(const global real_t *P, const global real_t *WO, const global real_t *WI,
                          const ulong n, global real_t *out)
 {
     ulong i = get_global_id(0) * W;
     if (i >= n) return;
     Params p = load_params(P, n, i);
-    store_spec(BRDF(eval)(&p, load_dir(WI, n, i), load_dir(WO, n, i)), out, n, i);
+    store_spec(BRDF(eval)(&p, load_dir(WO, n, i), load_dir(WI, n, i)), out, n, i);
 }
 
 __kernel void pdf_batch(const global real_t *P, const global real_t *WO, const global real_t *WI,
@@ -146,10 +147,10 @@ inline spec albedo_estimate(const Params *p, vec3 wo, rand4 u)
 {
 #if ESTIMATOR == ESTIMATOR_UNIFORM
     vec3 wi = square_to_uniform_hemisphere(u.u0, u.u1);
-    return spec_scale(BRDF(eval)(p, wi, wo), wi.z * (2 * PI_R));
+    return spec_scale(BRDF(eval)(p, wo, wi), wi.z * (2 * PI_R));
 #elif ESTIMATOR == ESTIMATOR_COSINE
     vec3 wi = square_to_cosine_hemisphere(u.u0, u.u1);
-    return spec_scale(BRDF(eval)(p, wi, wo), PI_R);
+    return spec_scale(BRDF(eval)(p, wo, wi), PI_R);
 #elif ESTIMATOR == ESTIMATOR_BRDF
     return BRDF(sample)(p, wo, u).weight;
 #else
@@ -163,7 +164,7 @@ inline spec albedo_estimate(const Params *p, vec3 wo, rand4 u)
     vec3 wc = square_to_cosine_hemisphere(u.u0, u.u1);
     realN qc = (realN)0.5 * (BRDF(pdf)(p, wo, wc) + cosine_hemisphere_pdf(wc));
     realN rc = sel((realN)0, wc.z / qc, qc > 0);
-    return spec_sel(spec_scale(BRDF(eval)(p, wc, wo), rc), spec_scale(sb.weight, rb),
+    return spec_sel(spec_scale(BRDF(eval)(p, wo, wc), rc), spec_scale(sb.weight, rb),
                     u.u3 < (realN)0.5);
 #endif
 }

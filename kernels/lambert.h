@@ -11,7 +11,7 @@
 
 #define lambert_SAMPLE_DIMS 2
 
-inline spec lambert_eval(const Params *p, vec3 wi, vec3 wo)
+inline spec lambert_eval(const Params *p, vec3 wo, vec3 wi)
 {
     maskN ok = (wi.z > 0) & (wo.z > 0);
     spec f;

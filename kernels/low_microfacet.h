@@ -71,13 +71,13 @@ inline realN low_mf_diffuse_prob(const Params *p, vec3 wo)
 #endif
 }
 
-inline spec low_microfacet_eval(const Params *p, vec3 wi, vec3 wo)
+inline spec low_microfacet_eval(const Params *p, vec3 wo, vec3 wi)
 {
     vec3 H = add3(wi, wo);
     vec3 h = normalize3(H);
     realN x = low_one_minus_cos_h(H);
     realN lobe = exp(-p->c * log1p(p->b * x))                     /* S / a (eq 11) */
-                 * low_fresnel(p->eta, half_cos(wi, wi, wo, h)) * vcavity_G(wi, wo, h)
+                 * low_fresnel(p->eta, half_cos(wi, wo, wi, h)) * vcavity_G(wo, wi, h)
                  / (PI_R * wi.z * wo.z);                          /* eq 15 */
     maskN ok = (wi.z > 0) & (wo.z > 0);
     spec f;
@@ -131,14 +131,14 @@ inline BSample low_microfacet_sample(const Params *p, vec3 wo, rand4 u)
     s.wi = select3(s.wi, square_to_cosine_hemisphere(u.u0, u.u1), u.u2 < pd);
     s.pdf = low_microfacet_pdf(p, wo, s.wi);
     maskN ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
-    s.weight = spec_scale(low_microfacet_eval(p, s.wi, wo), s.wi.z / s.pdf);
+    s.weight = spec_scale(low_microfacet_eval(p, wo, s.wi), s.wi.z / s.pdf);
 #else
     /* f cos / pdf with S / P_h = a N: a F G 4 (wo.h) N / (pi cos_o) */
     realN oh = dot3(wo, h);
     realN ninv = low_h_norm_inv(p->b, p->c);
     s.pdf = exp(-p->c * log1p(p->b * x)) * ninv / (4 * oh);
     maskN ok = (s.wi.z > 0) & (wo.z > 0) & (oh > 0);
-    realN g = low_fresnel(p->eta, oh) * vcavity_G(s.wi, wo, h) * 4 * oh
+    realN g = low_fresnel(p->eta, oh) * vcavity_G(wo, s.wi, h) * 4 * oh
               / (ninv * PI_R * wo.z);
     for (int c = 0; c < CHANNELS; ++c)
         s.weight.c[c] = p->a[c] * g;

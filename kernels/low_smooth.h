@@ -46,14 +46,14 @@
 #define low_smooth_SAMPLE_DIMS (LOW_MIXTURE ? 3 : 2)
 
 /* |Dp|^2 = |Lp + Vp|^2 (eq 10). */
-inline realN low_dp2(vec3 wi, vec3 wo) { return sqr(wi.x + wo.x) + sqr(wi.y + wo.y); }
+inline realN low_dp2(vec3 wo, vec3 wi) { return sqr(wi.x + wo.x) + sqr(wi.y + wo.y); }
 
 /* cos theta_d = sqrt(1 - |Lp - Vp|^2 / 4) (eq 13-14), written for unit wi, wo as a sum of
  * squares, 0.5 sqrt(|Lp + Vp|^2 + 2 (cos_i^2 + cos_o^2)): the printed form cancels near the
  * grazing mirror direction (5 % off in single, and F = 1 at eta = 1 where it is 0). */
-inline realN low_cos_d(vec3 wi, vec3 wo)
+inline realN low_cos_d(vec3 wo, vec3 wi)
 {
-    return (realN)0.5 * sqrt(low_dp2(wi, wo) + 2 * (wi.z * wi.z + wo.z * wo.z));
+    return (realN)0.5 * sqrt(low_dp2(wo, wi) + 2 * (wi.z * wi.z + wo.z * wo.z));
 }
 
 /* L of eq 19 for a lobe of sharpness b seen from wo: pi A M_d = b / L. */
@@ -124,10 +124,10 @@ inline LowSmoothMix low_smooth_mix(const Params *p, vec3 wo)
     return m;
 }
 
-inline spec low_smooth_eval(const Params *p, vec3 wi, vec3 wo)
+inline spec low_smooth_eval(const Params *p, vec3 wo, vec3 wi)
 {
-    realN dp2 = low_dp2(wi, wo);
-    realN F = low_fresnel(p->eta, low_cos_d(wi, wo));
+    realN dp2 = low_dp2(wo, wi);
+    realN F = low_fresnel(p->eta, low_cos_d(wo, wi));
     realN s1 = F * exp(-p->c * log1p(p->b * dp2));           /* F S / a (eq 12) */
 #if LOW_TWO_LOBES
     realN s2 = exp(-p->c2 * log1p(p->b2 * dp2));             /* S2 / a2 (eq 34) */
@@ -149,7 +149,7 @@ inline spec low_smooth_eval(const Params *p, vec3 wi, vec3 wo)
 
 inline realN low_smooth_pdf_mix(const Params *p, LowSmoothMix m, vec3 wo, vec3 wi)
 {
-    realN dp2 = low_dp2(wi, wo);
+    realN dp2 = low_dp2(wo, wi);
     realN pd = m.l1 * low_disk_pdf(p->b, m.L1, dp2);
 #if LOW_TWO_LOBES
     pd += m.l2 * low_disk_pdf(p->b2, m.L2, dp2);
@@ -181,13 +181,13 @@ inline BSample low_smooth_sample(const Params *p, vec3 wo, rand4 u)
 #endif
     s.pdf = low_smooth_pdf_mix(p, m, wo, s.wi);
     maskN ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
-    s.weight = spec_scale(low_smooth_eval(p, s.wi, wo), s.wi.z / s.pdf);
+    s.weight = spec_scale(low_smooth_eval(p, wo, s.wi), s.wi.z / s.pdf);
 #else
     /* f cos / pdf = F a (1 + b |Dp|^2)^(1 - c) L / b, P_d cancelled */
-    realN dp2 = low_dp2(s.wi, wo);
+    realN dp2 = low_dp2(wo, s.wi);
     s.pdf = low_smooth_pdf_mix(p, m, wo, s.wi);
     maskN ok = (s.wi.z > 0) & (wo.z > 0);
-    realN g = low_fresnel(p->eta, low_cos_d(s.wi, wo)) * low_abc_ratio(p->b, p->c, dp2)
+    realN g = low_fresnel(p->eta, low_cos_d(wo, s.wi)) * low_abc_ratio(p->b, p->c, dp2)
               * PI_R * m.L1 / p->b;
     for (int c = 0; c < CHANNELS; ++c)
         s.weight.c[c] = p->a[c] * g;

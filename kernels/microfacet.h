@@ -1,6 +1,6 @@
 /* Microfacet reflection BRDF (Cook & Torrance 1982; Walter et al. 2007), optional Lambertian term.
  *
- *   f(wi, wo) = [ks] F(wi . h) D(h) G(wi, wo, h) / (4 cos_i cos_o)  [+ kd / pi]
+ *   f(wo, wi) = [ks] F(wi . h) D(h) G(wo, wi, h) / (4 cos_i cos_o)  [+ kd / pi]
  *
  * | parameter        | meaning                                   | range        |
  * |------------------|-------------------------------------------|--------------|
@@ -81,15 +81,15 @@ inline realN mf_fresnel(const Params *p, realN c, int ch)
 
 inline realN mf_G1(Microfacet m, vec3 w) { return 1 / (1 + MF(Lambda)(m, w)); }
 
-/* Masking-shadowing G(wi, wo, h) (MODELS.md section 1). */
-inline realN mf_G(Microfacet m, vec3 wi, vec3 wo, vec3 h)
+/* Masking-shadowing G(wo, wi, h) (MODELS.md section 1). */
+inline realN mf_G(Microfacet m, vec3 wo, vec3 wi, vec3 h)
 {
 #if MF_MASKING == MASKING_CORRELATED
     return 1 / (1 + MF(Lambda)(m, wi) + MF(Lambda)(m, wo));
 #elif MF_MASKING == MASKING_SEPARABLE
     return mf_G1(m, wi) * mf_G1(m, wo);
 #elif MF_MASKING == MASKING_VCAVITY
-    return vcavity_G(wi, wo, h);
+    return vcavity_G(wo, wi, h);
 #else
     return (realN)1;
 #endif
@@ -111,12 +111,12 @@ inline realN mf_diffuse_prob(const Params *p, vec3 wo)
 #endif
 }
 
-inline spec microfacet_eval(const Params *p, vec3 wi, vec3 wo)
+inline spec microfacet_eval(const Params *p, vec3 wo, vec3 wi)
 {
     Microfacet m = mf_distribution(p);
     vec3 h = normalize3(add3(wi, wo));
-    realN lobe = MF(D)(m, h) * mf_G(m, wi, wo, h) / (4 * wi.z * wo.z);
-    realN c_d = half_cos(wi, wi, wo, h);
+    realN lobe = MF(D)(m, h) * mf_G(m, wo, wi, h) / (4 * wi.z * wo.z);
+    realN c_d = half_cos(wi, wo, wi, h);
     maskN ok = (wi.z > 0) & (wo.z > 0);
     spec f;
     for (int c = 0; c < CHANNELS; ++c) {
@@ -175,14 +175,14 @@ inline BSample microfacet_sample(const Params *p, vec3 wo, rand4 u)
     s.pdf = pd * s.wi.z * INV_PI_R + (1 - pd) * mf_lobe_pdf(m, wo, hh);
     ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
     /* f cos_i = F D G / (4 cos_o) + kd cos_i / pi */
-    realN lobe = MF(D)(m, hh) * mf_G(m, s.wi, wo, hh) / (4 * wo.z);
+    realN lobe = MF(D)(m, hh) * mf_G(m, wo, s.wi, hh) / (4 * wo.z);
     realN c_h = dot3(s.wi, hh);
     realN inv = 1 / s.pdf;
     for (int c = 0; c < CHANNELS; ++c)
         s.weight.c[c] = (mf_fresnel(p, c_h, c) * lobe + p->kd[c] * INV_PI_R * s.wi.z) * inv;
 #else
     /* f cos_i / pdf with D cancelled: vndf F G / G1(wo); ndf F G (wo.h) / (cos_o cos_h) */
-    realN G = mf_G(m, s.wi, wo, h);
+    realN G = mf_G(m, wo, s.wi, h);
     s.pdf = mf_lobe_pdf(m, wo, h);
 #if MF_SAMPLER == SAMPLER_VNDF
     realN g = G * (1 + MF(Lambda)(m, wo));

@@ -105,7 +105,7 @@ inline realN sch_A(SchLayer L, vec3 h, int aniso)
 inline realN sch_G(realN r, realN v) { return v / (r - r * v + v); }
 
 /* directional factor D of one layer (eq 12 / 15 / 17 / 18) */
-inline realN sch_D(SchLayer L, int aniso, vec3 wi, vec3 wo, vec3 h)
+inline realN sch_D(SchLayer L, int aniso, vec3 wo, vec3 wi, vec3 h)
 {
     realN A = sch_A(L, h, aniso);
     realN za = sch_Z(L.r, h) * A * (realN)(0.25 * INV_PI_R) / (wo.z * wi.z);
@@ -122,12 +122,12 @@ inline realN sch_D(SchLayer L, int aniso, vec3 wi, vec3 wo, vec3 h)
 }
 
 /* R (eq 9) with a given half vector h (unit, h = normalize(wi + wo)) */
-inline spec sch_eval_h(const Params *p, vec3 wi, vec3 wo, vec3 h)
+inline spec sch_eval_h(const Params *p, vec3 wo, vec3 wi, vec3 h)
 {
     realN u = dot3(wo, h);
-    realN d1 = sch_D(sch_layer1(p), SCH_ANISO1, wi, wo, h);
+    realN d1 = sch_D(sch_layer1(p), SCH_ANISO1, wo, wi, h);
 #if SCH_DOUBLE
-    realN d2 = sch_D(sch_layer2(p), SCH_ANISO2, wi, wo, h);
+    realN d2 = sch_D(sch_layer2(p), SCH_ANISO2, wo, wi, h);
 #endif
     maskN ok = (wi.z > 0) & (wo.z > 0);
     spec f;
@@ -142,9 +142,9 @@ inline spec sch_eval_h(const Params *p, vec3 wi, vec3 wo, vec3 h)
     return f;
 }
 
-inline spec schlick_eval(const Params *p, vec3 wi, vec3 wo)
+inline spec schlick_eval(const Params *p, vec3 wo, vec3 wi)
 {
-    return sch_eval_h(p, wi, wo, normalize3(add3(wi, wo)));
+    return sch_eval_h(p, wo, wi, normalize3(add3(wi, wo)));
 }
 
 /* ---- sampling ---- */
@@ -302,7 +302,7 @@ inline BSample schlick_sample(const Params *p, vec3 wo, rand4 u)
 #endif
     s.pdf = sch_pdf_h(p, wo, s.wi, h);
     maskN ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
-    s.weight = spec_scale(sch_eval_h(p, s.wi, wo, h), s.wi.z / s.pdf);
+    s.weight = spec_scale(sch_eval_h(p, wo, s.wi, h), s.wi.z / s.pdf);
     s.weight = spec_sel(spec_splat((realN)0), s.weight, ok);
     s.pdf = sel((realN)0, s.pdf, ok);
     return s;

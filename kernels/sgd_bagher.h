@@ -54,7 +54,7 @@ inline realN sgdb_kap(const Params *P, int ch, realN inv_kap)
 #endif
 }
 
-inline spec sgd_bagher_eval(const Params *P, vec3 wi, vec3 wo)
+inline spec sgd_bagher_eval(const Params *P, vec3 wo, vec3 wi)
 {
     vec3 h = normalize3(add3(wi, wo));
     realN cd = clamp(dot3(wi, h), (realN)0, (realN)1);
@@ -139,7 +139,7 @@ inline BSample sgd_bagher_sample(const Params *P, vec3 wo, rand4 u)
     s.wi = select3(reflect3(wo, h), square_to_cosine_hemisphere(u.u0, u.u1), diffuse);
     s.pdf = sgdb_pdf(P, wo, s.wi, inv_kap);
     maskN ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
-    s.weight = spec_scale(sgd_bagher_eval(P, s.wi, wo), s.wi.z / s.pdf);
+    s.weight = spec_scale(sgd_bagher_eval(P, wo, s.wi), s.wi.z / s.pdf);
     s.weight = spec_sel(spec_splat((realN)0), s.weight, ok);
     s.pdf = sel((realN)0, s.pdf, ok);
     return s;

@@ -16,7 +16,7 @@ from scipy import integrate
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from clbrdf.reference import cosine_map, hemisphere_integral  # noqa: E402
+from clbrdf.quadrature import cosine_map, hemisphere_integral  # noqa: E402
 from clbrdf.ref import holzschuch_pacanowski as R  # noqa: E402
 
 LAMS = R.WAVELENGTHS

@@ -131,7 +131,7 @@ def model_kwargs(cfg, alpha=0.3, alpha_y=None, **override):
 
 
 def ref_kwargs(kw):
-    """clbrdf.reference keywords for Model keywords (the reference calls the lobe sampler
+    """clbrdf.ref.microfacet keywords for Model keywords (the reference calls the lobe sampler
     ``lobe_sampler``)."""
     kw = dict(kw)
     if "sampler" in kw:

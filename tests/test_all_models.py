@@ -45,7 +45,7 @@ def outputs(name, precision, width):
     m = clbrdf.Model(name, precision=precision, width=width, **model_kwargs(name))
     wo = directions()
     wi = directions(seed=6)
-    f = m.eval(wi, wo)
+    f = m.eval(wo, wi)
     p = m.pdf(wo, wi)
     ws, w, ps = m.sample(wo, seed=3)
     return m, wo, f, p, ws, w, ps
@@ -79,7 +79,7 @@ def test_sample_weight_is_f_cos_over_pdf(name, precision):
     m, wo, f, p, wi, w, ps = outputs(name, precision, None)
     ok = ps > 0
     assert np.all(np.isfinite(w)) and np.all(np.isfinite(ps)) and np.all(ps >= 0)
-    fs = m.eval(wi[ok], wo[ok])
+    fs = m.eval(wo[ok], wi[ok])
     pe = m.pdf(wo[ok], wi[ok])
     cos = wi[ok, 2].reshape((-1,) + (1,) * (fs.ndim - 1))
     rtol = 1e-3 if precision == "single" else 1e-8

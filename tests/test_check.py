@@ -9,13 +9,14 @@ import numpy as np
 import pytest
 
 import clbrdf
-from clbrdf.check import check
+from clbrdf.check import check, configurations
 from clbrdf.models import MODELS
 
 # Checks that fail at a model's defaults because the model truly breaks the property (evidence in
 # docs/models.md, "What clbrdf check finds"): model -> names of the failing checks.
 KNOWN_FAILURES = {
     "schlick": {"energy"},         # E = 1.47 at mu = 1e-6 (eq 18): per direction not conserving
+    "ward": {"energy"},            # E = 27.6 at mu = 1e-6: f ~ 1 / sqrt(cos_o) at grazing
 }
 
 
@@ -40,13 +41,13 @@ class WrongPdf(clbrdf.Model):
 
 
 class ScaledEval(clbrdf.Model):
-    def eval(self, wi, wo):
-        return 1.05 * super().eval(wi, wo)
+    def eval(self, wo, wi):
+        return 1.05 * super().eval(wo, wi)
 
 
 class NanAtGrazing(clbrdf.Model):
-    def eval(self, wi, wo):
-        f = super().eval(wi, wo)
+    def eval(self, wo, wi):
+        f = super().eval(wo, wi)
         return np.where(np.asarray(wo)[..., 2] < 1e-5, np.nan, f)
 
 
@@ -119,29 +120,8 @@ def test_cli_check_exit_codes_and_json():
 # The battery over configurations drawn from each description (slow tier): each option value,
 # each optional parameter added at its default, RGB, double precision, and three presets.
 
-def configurations(name):
-    """(id, kwargs) of valid configurations of ``name``, drawn from its description."""
-    from clbrdf import presets
-    spec = MODELS[name]
-    base = clbrdf.Model(name)
-    out = [("defaults", {}), ("double", {"precision": "double"}), ("rgb", {"channels": 3})]
-    for o in spec.options:
-        out += [(f"{o.name}={c}", {o.name: c}) for c in o.choices if c != base.options.get(o.name)]
-    out += [(f"+{p.name}", {p.name: p.default}) for p in spec.params
-            if p.name not in base.config.param_names and not p.computed]
-    for i, mat in enumerate(presets.materials(name)[::37][:3]):
-        out.append((f"preset={mat}", {"preset": mat}))
-    valid = []
-    for cid, kw in out:
-        try:
-            clbrdf.Model(name, **kw)
-        except clbrdf.ParameterError:
-            continue                    # e.g. layer-2 parameters of schlick without material=double
-        valid.append((cid, kw))
-    return valid
-
-
-BATTERY = [(n, cid, kw) for n in MODELS for cid, kw in configurations(n)]
+BATTERY = [(n, cid, kw) for n in MODELS for cid, kw in configurations(n)
+           + [("double", {"precision": "double"})]]
 
 
 @pytest.mark.slow

@@ -7,7 +7,7 @@ import sys
 import numpy as np
 import pytest
 
-from clbrdf import reference as R
+from clbrdf.ref import microfacet as R
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -77,7 +77,7 @@ def test_eval_matches_reference(model, params, wi, wo):
             ",".join(repr(float(x)) for x in wo)]
     for k, v in params.items():
         args += ["--param", f"{k}={v}"]
-    ref = float(R.eval(model, wi, np.array(wo), **params))
+    ref = float(R.eval(model, np.array(wo), wi, **params))
     value = float(ok(*args).stdout)
     assert value == pytest.approx(ref, rel=2e-4, abs=1e-6)
     d = json.loads(ok(*args, "--json", "--precision", "double").stdout)

@@ -16,7 +16,7 @@ def test_displayed_defaults_are_the_real_ones(name):
     old displayed 1 changed E(0.5) from 0.74 to 0.11) is not used until given and says so."""
     spec = MODELS[name]
     base = clbrdf.Model(name, precision="double")
-    f0 = base.eval(WI, WO)
+    f0 = base.eval(WO, WI)
     for p in spec.params:
         if p.computed:
             assert p.name not in base.config.param_names, p.name
@@ -24,7 +24,7 @@ def test_displayed_defaults_are_the_real_ones(name):
         if p.name not in base.config.param_names:
             continue
         m = clbrdf.Model(name, precision="double", **{p.name: p.default})
-        np.testing.assert_array_equal(m.eval(WI, WO), f0, err_msg=p.name)
+        np.testing.assert_array_equal(m.eval(WO, WI), f0, err_msg=p.name)
 
 
 def test_models_cli_shows_computed_default():
@@ -36,3 +36,17 @@ def test_models_cli_shows_computed_default():
         assert main(["models", "sgd_bagher"]) == 0
     line = next(ln for ln in buf.getvalue().splitlines() if ln.strip().startswith("kap "))
     assert "default computed" in line and "1 / (alpha Gamma(1-p, alpha))" in line
+
+
+def test_argument_order_is_wo_wi_everywhere():
+    """(wo, wi) in Model, in every reference, and by keyword; pdf(wo, wi) is the density of wi
+    given wo: for a GGX lobe sampled by visible normals pdf(wo, wi) != pdf(wi, wo)."""
+    import inspect
+    from clbrdf.ref import Reference, reference
+    for fn in (clbrdf.Model.eval, clbrdf.Model.pdf, Reference.eval, Reference.pdf):
+        assert list(inspect.signature(fn).parameters)[1:3] == ["wo", "wi"], fn
+    m = clbrdf.Model("ggx", alpha=0.3, precision="double")
+    np.testing.assert_array_equal(m.eval(wi=WI, wo=WO), m.eval(WO, WI))
+    ref = reference(m)
+    np.testing.assert_allclose(m.pdf(WO, WI), ref.pdf(WO, WI), rtol=1e-12)
+    assert not np.allclose(m.pdf(WO, WI), m.pdf(WI, WO), rtol=1e-3)

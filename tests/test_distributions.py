@@ -124,8 +124,8 @@ def test_D_matches_reference(model, kw, precision, width, model_cache):
     m = model_cache(model, precision=precision, width=width, masking="none", **kw)
     rng = np.random.default_rng(zlib.crc32(cid(model, kw).encode()))
     wi, wo = rand_dirs(rng, 400), rand_dirs(rng, 400)
-    f = m.eval(wi, wo)
-    ref = RD.eval(model, wi, wo, masking="none", **kw)
+    f = m.eval(wo, wi)
+    ref = RD.eval(model, wo, wi, masking="none", **kw)
     rtol = 2e-5 if precision == "single" else 1e-10
     np.testing.assert_allclose(f, ref, rtol=rtol, atol=1e-30 + 1e-12 * ref.max())
 
@@ -146,8 +146,8 @@ def test_G1_matches_quadrature(model, kw, precision, model_cache):
     table's stated error (GTR gamma = 1: the closed form, to rounding)."""
     mus = np.concatenate([np.geomspace(1e-4, 0.1, 6), np.linspace(0.15, 0.99, 8)])
     wi, wo = mirror_pairs(mus)
-    f_none = model_cache(model, precision=precision, masking="none", **kw).eval(wi, wo)
-    f_sep = model_cache(model, precision=precision, masking="separable", **kw).eval(wi, wo)
+    f_none = model_cache(model, precision=precision, masking="none", **kw).eval(wo, wi)
+    f_sep = model_cache(model, precision=precision, masking="separable", **kw).eval(wo, wi)
     g1 = np.sqrt(f_sep / f_none)
     lam = RD.Lambda(model, wo, kw["alpha"], shape_of(model, kw))
     ref = 1 / (1 + lam)
@@ -165,10 +165,10 @@ def test_widths_agree(model, kw, model_cache):
     wi, wo = rand_dirs(rng, 333, 1e-3), rand_dirs(rng, 333, 1e-3)
     u = rng.random((333, 4))
     ref = model_cache(model, width=16, masking="correlated", **kw)
-    f16, s16 = ref.eval(wi, wo), ref.sample(wo, u)
+    f16, s16 = ref.eval(wo, wi), ref.sample(wo, u)
     for w in (1, 2, 4, 8):
         m = model_cache(model, width=w, masking="correlated", **kw)
-        np.testing.assert_allclose(m.eval(wi, wo), f16, rtol=1e-5, atol=1e-30)
+        np.testing.assert_allclose(m.eval(wo, wi), f16, rtol=1e-5, atol=1e-30)
         s = m.sample(wo, u)
         np.testing.assert_allclose(s[0], s16[0], rtol=1e-4, atol=1e-5)
         np.testing.assert_allclose(s[1], s16[1], rtol=1e-4, atol=1e-6)
@@ -199,13 +199,13 @@ def test_reciprocity_and_weight(model, kw, model_cache):
     m = model_cache(model, precision="double", f0=0.3, kd=0.2, **kw)
     rng = np.random.default_rng(5)
     wi, wo = rand_dirs(rng, 200), rand_dirs(rng, 200)
-    np.testing.assert_allclose(m.eval(wi, wo), m.eval(wo, wi), rtol=1e-12)
+    np.testing.assert_allclose(m.eval(wo, wi), m.eval(wi, wo), rtol=1e-12)
     u = rng.random((400, 4))
     wo = rand_dirs(rng, 400, 0.05)
     s_wi, weight, pdf = m.sample(wo, u)
     up = s_wi[:, 2] > 0
     assert np.all(weight[~up] == 0)
-    f = m.eval(s_wi[up], wo[up])
+    f = m.eval(wo[up], s_wi[up])
     np.testing.assert_allclose(pdf[up], m.pdf(wo[up], s_wi[up]), rtol=1e-9)
     np.testing.assert_allclose(weight[up], f * s_wi[up, 2] / pdf[up], rtol=1e-9)
 
@@ -220,9 +220,9 @@ def test_gtr_continuous_at_gamma_one(model_cache):
     """gamma = 1 +- 1e-6 (general formulas and the table) against gamma = 1 (closed forms)."""
     rng = np.random.default_rng(3)
     wi, wo = rand_dirs(rng, 100), rand_dirs(rng, 100)
-    f1 = model_cache("gtr", precision="double", alpha=0.2, gamma=1.0).eval(wi, wo)
+    f1 = model_cache("gtr", precision="double", alpha=0.2, gamma=1.0).eval(wo, wi)
     for g in (1 - 1e-6, 1 + 1e-6):
-        f = model_cache("gtr", precision="double", alpha=0.2, gamma=g).eval(wi, wo)
+        f = model_cache("gtr", precision="double", alpha=0.2, gamma=g).eval(wo, wi)
         np.testing.assert_allclose(f, f1, rtol=1e-4)
 
 
@@ -296,7 +296,7 @@ def test_extremes_finite(precision, model_cache):
     for model, kw in cases:
         for masking in ("correlated", "separable"):
             m = model_cache(model, precision=precision, masking=masking, **kw)
-            f = m.eval(wi, wo)
+            f = m.eval(wo, wi)
             pdf = m.pdf(wo, wi)
             swi, weight, spdf = m.sample(wo, u)
             for name, v in (("f", f), ("pdf", pdf), ("wi", swi), ("weight", weight), ("spdf", spdf)):
@@ -322,13 +322,13 @@ def test_bagher_presets_match_dj_brdf_formula():
     for row in rows:
         pre = presets.get("sgd_bagher", row["name"])
         m = clbrdf.Model("sgd_bagher", precision="double", preset=row["name"])
-        f = m.eval(wi, wo)
+        f = m.eval(wo, wi)
         for c, ch in enumerate("rgb"):
             prm = {k: float(row[f"{v}_{ch}"]) for k, v in
                    (("rho_d", "rhoD"), ("rho_s", "rhoS"), ("alpha", "alpha"), ("p", "p"),
                     ("f0", "f0"), ("f1", "f1"), ("kap", "kap"), ("lam", "lambda"), ("c", "c"),
                     ("k", "k"), ("theta0", "theta0"))}
-            ref = RD.bagher_eval(wi, wo, **prm)
+            ref = RD.bagher_eval(wo, wi, **prm)
             np.testing.assert_allclose(f[:, c], ref, rtol=1e-9, atol=1e-300,
                                        err_msg=f"{row['name']} {ch}")
         assert pre.params["lam"][0] == float(row["lambda_r"])
@@ -356,9 +356,9 @@ def test_bagher_rgb_equals_channels(model_cache):
     """channels=3 equals three channels=1 models (eval, and pdf when every channel is alike)."""
     rng = np.random.default_rng(11)
     wi, wo = rand_dirs(rng, 64), rand_dirs(rng, 64)
-    f3 = model_cache("sgd_bagher", precision="double", channels=3, **BAGHER).eval(wi, wo)
+    f3 = model_cache("sgd_bagher", precision="double", channels=3, **BAGHER).eval(wo, wi)
     for c in range(3):
-        f1 = model_cache("sgd_bagher", precision="double", **bagher_channel(BAGHER, c)).eval(wi, wo)
+        f1 = model_cache("sgd_bagher", precision="double", **bagher_channel(BAGHER, c)).eval(wo, wi)
         np.testing.assert_allclose(f3[:, c], f1, rtol=1e-12)
     same = {k: [v[1]] * 3 for k, v in BAGHER.items()}
     p3 = model_cache("sgd_bagher", precision="double", channels=3, **same).pdf(wo, wi)
@@ -375,12 +375,12 @@ def test_bagher_pdf_weight_and_reference(model_cache):
     wi, wo = rand_dirs(rng, 300), rand_dirs(rng, 300)
     ref = RD.pdf("sgd_bagher", wo, wi, **BAGHER)
     np.testing.assert_allclose(m.pdf(wo, wi), ref, rtol=1e-9)
-    np.testing.assert_allclose(m.eval(wi, wo), m.eval(wo, wi), rtol=1e-12)
+    np.testing.assert_allclose(m.eval(wo, wi), m.eval(wi, wo), rtol=1e-12)
     u = rng.random((500, 4))
     wo = rand_dirs(rng, 500, 0.05)
     s_wi, weight, pdf = m.sample(wo, u)
     up = s_wi[:, 2] > 0
-    f = m.eval(s_wi[up], wo[up])
+    f = m.eval(wo[up], s_wi[up])
     np.testing.assert_allclose(weight[up], f * s_wi[up, 2, None] / pdf[up, None], rtol=1e-9)
     assert np.all(weight[~up] == 0)
 

@@ -28,7 +28,7 @@ import pytest
 from scipy.interpolate import CubicSpline
 
 import clbrdf
-from clbrdf import reference as REF
+from clbrdf.ref import microfacet as REF
 from clbrdf.ref import distributions as RD
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -1,7 +1,7 @@
 """Kernel values, sampling arithmetic, precisions, widths, extremes and random numbers.
 
 Every model configuration is checked against the independent float64 NumPy reference
-(clbrdf.reference). The default run covers Lambert and a 16-row pairwise covering array of the
+(clbrdf.ref.microfacet). The default run covers Lambert and a 16-row pairwise covering array of the
 microfacet options (dist x iso/aniso x masking x fresnel x kd x sampler: every pair of values of
 any two options occurs); ``-m slow`` adds the rest of the full product (256 configurations).
 
@@ -21,7 +21,7 @@ from scipy.special import erf
 
 import clbrdf
 import stats as S
-from clbrdf import reference as R
+from clbrdf.ref import microfacet as R
 from stats import assert_close
 
 PREC = {  # dtype, unit roundoff, base rtol, absolute floor, Beckmann flush exponent
@@ -67,9 +67,9 @@ def test_eval_pdf_match_reference(cfg, precision, model_cache):
     kw = {k: (S.round_to(dtype, v)[0] if isinstance(v, np.ndarray) else v) for k, v in kw.items()}
     m = model_cache(cfg["name"], precision=precision, **kw)
     rkw = S.ref_kwargs(kw)
-    f_ref = R.eval(cfg["name"], wi, wo, **rkw)
+    f_ref = R.eval(cfg["name"], wo, wi, **rkw)
     p_ref = R.pdf(cfg["name"], wo, wi, "brdf", **rkw)
-    f = m.eval(wi, wo)
+    f = m.eval(wo, wi)
     p = m.pdf(wo, wi)
     assert f.dtype == dtype and p.dtype == dtype
     e, _ = S.slope_exponent(wi, wo, ax, ay)
@@ -102,8 +102,8 @@ def test_reciprocity(cfg, precision, model_cache):
     wi, wo = S.random_pairs(rng, n, ax, ay, min_z=1e-3, below=0)
     wi, wo = S.round_to(dtype, wi, wo)
     m = model_cache(cfg["name"], precision=precision, **kw)
-    a = m.eval(wi, wo)
-    b = m.eval(wo, wi)
+    a = m.eval(wo, wi)
+    b = m.eval(wi, wo)
     _, woh = S.slope_exponent(wi, wo, ax, ay)
     rtol = S.cond_rtol(128 * eps, eps, wi, wo, ax, ay) + 8 * eps / woh ** 2
     assert_close(a, b, rtol, PREC[precision][3], what="f(wi,wo) vs f(wo,wi)",
@@ -122,7 +122,7 @@ def sample_directions(rng, n, min_mu=0.05):
 @pytest.mark.parametrize("cfg", ALL_CONFIGS)
 def test_sample_weight_and_pdf_consistent(cfg, precision, model_cache):
     """For samples of Model.sample (the library's generator): pdf == pdf kernel at (wo, wi) and
-    weight == eval(wi, wo) wi.z / pdf(wo, wi), each from a separate kernel call; weight = pdf = 0
+    weight == eval(wo, wi) wi.z / pdf(wo, wi), each from a separate kernel call; weight = pdf = 0
     below the horizon. The sample computes its values from its own half vector h, the separate
     calls from normalize(wi + wo) with wi rounded to the output precision: the pdf then carries
     the half-vector conditioning, amplified by 1 / (2 wo.h) (stats.cond_rtol, amplify); in the
@@ -142,7 +142,7 @@ def test_sample_weight_and_pdf_consistent(cfg, precision, model_cache):
     assert np.all(weight >= 0) and np.all(pdf >= 0)
     up = ~below
     p2 = m.pdf(wo, wi)[up]          # per-pair parameters: evaluate all pairs, then select
-    f2 = m.eval(wi, wo)[up]
+    f2 = m.eval(wo, wi)[up]
     ctx = {"wi": wi[up], "wo": wo[up], "alpha_x": ax[up], "alpha_y": ay[up]}
     rtol_p = S.cond_rtol(base, eps, wi[up], wo[up], ax[up], ay[up], amplify=True)
     assert_close(pdf[up], p2, rtol_p, atol, what="sample pdf vs pdf kernel", context=ctx)
@@ -195,7 +195,7 @@ def test_single_matches_double(cfg, model_cache):
     flush = None
     if cfg["name"] == "beckmann":
         flush = S.slope_exponent(wi, wo, ax, ay)[0] >= 85 - 0.01
-    assert_close(ms.eval(wi, wo), md.eval(wi, wo), rtol, 1e-36, allow_zero=flush,
+    assert_close(ms.eval(wo, wi), md.eval(wo, wi), rtol, 1e-36, allow_zero=flush,
                  what="eval single vs double", context=ctx)
     assert_close(ms.pdf(wo, wi), md.pdf(wo, wi), rtol, 1e-36, allow_zero=flush,
                  what="pdf single vs double", context=ctx)
@@ -216,7 +216,7 @@ def test_single_matches_double(cfg, model_cache):
     assert np.all(((wd[:, 2] > 0) == up) | (np.abs(wd[:, 2]) <= dw))
     ctx = {"wi": ws[up], "wo": wo[up], "u": u[up], "alpha_x": ax[up], "alpha_y": ay[up]}
     p2 = md.pdf(wo, ws)[up]
-    f2 = md.eval(ws, wo)[up]
+    f2 = md.eval(wo, ws)[up]
     assert_close(ps[up], p2, S.cond_rtol(1e-4, eps, ws[up], wo[up], ax[up], ay[up], amplify=True),
                  1e-36, what="single sample pdf vs double pdf at the same wi", context=ctx)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -258,7 +258,7 @@ def test_widths_agree(cfg, precision, width, model_cache):
     wi, wo = S.round_to(dtype, wi, wo)
     rtol = S.cond_rtol(16 * eps, eps, wi, wo, ax, ay)
     ctx = {"wi": wi, "wo": wo}
-    assert_close(b.eval(wi, wo), a.eval(wi, wo), rtol, PREC[precision][3], what=f"eval w{width}", context=ctx)
+    assert_close(b.eval(wo, wi), a.eval(wo, wi), rtol, PREC[precision][3], what=f"eval w{width}", context=ctx)
     assert_close(b.pdf(wo, wi), a.pdf(wo, wi), rtol, PREC[precision][3], what=f"pdf w{width}", context=ctx)
     wo = S.round_to(dtype, sample_directions(rng, n, 0.01))[0]
     u = exact_float32_u(rng, n)
@@ -336,7 +336,7 @@ def test_no_nan_or_inf_at_extremes(dist, fresnel, precision, masking, sampler, k
     kw = extreme_model_kwargs(fresnel, masking, sampler, kd, aniso)
     m = model_cache(dist, precision=precision, **kw)
     wi, wo = dirs[None, :, None, :], dirs[None, None, :, :]
-    f = m.eval(wi, wo)
+    f = m.eval(wo, wi)
     p = m.pdf(wo, wi)
     assert np.all(np.isfinite(f)) and np.all(np.isfinite(p)), "eval/pdf not finite"
     nonneg_ok = fresnel != "conductor" and masking != "vcavity"
@@ -368,7 +368,7 @@ def test_conductor_fresnel_nonnegative(model_cache):
     eta = np.array([1.0, 1.0001, 0.9999])[:, None]
     m = model_cache("ggx", precision="single", alpha=0.5, masking="none", fresnel="conductor",
                     eta=eta, k=0.0)
-    F = m.eval(wi, wo).astype(float) * 4 * c * c * np.pi * 0.25
+    F = m.eval(wo, wi).astype(float) * 4 * c * c * np.pi * 0.25
     F_ref = R.fresnel("conductor", c, eta=eta, k=0.0)
     assert np.all(F >= 0), f"negative F: min {F.min():.3g}"
     assert np.all(np.abs(F - F_ref) <= 2e-3 * F_ref + 1e-7), np.max(np.abs(F - F_ref) / F_ref)
@@ -378,8 +378,8 @@ def test_vcavity_nonnegative_at_grazing_backscatter(model_cache):
     m = model_cache("ggx", precision="single", alpha=0.1, masking="vcavity")
     wo = np.array([[0.866904941, 0.498473484, 1e-4]])
     wi = np.array([[-0.866906816, -0.498470223, 9.34564237e-05]])
-    f = m.eval(wi, wo)
-    assert f[0] >= 0, f"f = {f[0]!r} (reference {R.eval('ggx', wi, wo, alpha=0.1, masking='vcavity')[0]:.4g})"
+    f = m.eval(wo, wi)
+    assert f[0] >= 0, f"f = {f[0]!r} (reference {R.eval('ggx', wo, wi, alpha=0.1, masking='vcavity')[0]:.4g})"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -607,7 +607,7 @@ def test_dielectric_fresnel_index_matched(precision, model_cache):
     eta = np.array([1.0, 1.001, 0.999, 1.5])[:, None]
     m = model_cache("ggx", precision=precision, alpha=0.5, masking="none", fresnel="dielectric",
                     eta=eta)
-    F = m.eval(wi, wo).astype(float) * 4 * c * c * np.pi * 0.25
+    F = m.eval(wo, wi).astype(float) * 4 * c * c * np.pi * 0.25
     F_ref = R.fresnel("dielectric", c, eta=eta)
     assert np.all(np.isfinite(F))
     np.testing.assert_array_equal(F[0], 0.0)

@@ -39,7 +39,7 @@ SCRIPT = textwrap.dedent("""
     m = clbrdf.Model(name.replace('_rgb', ''), width=width, precision=precision, device='oclgrind', **kw)
     rng = np.random.default_rng(0)
     v = rng.normal(size=(7, 3)); v[:, 2] = abs(v[:, 2]); v /= np.linalg.norm(v, axis=1, keepdims=True)
-    m.eval(v, v[::-1]); m.pdf(v, v[::-1]); m.sample(v, seed=1)
+    m.eval(v[::-1], v); m.pdf(v, v[::-1]); m.sample(v, seed=1)
     for est in ('uniform', 'brdf', 'mis'):
         clbrdf.albedo(m, [0.3, 0.9], samples=1500, estimator=est)
     clbrdf.albedo(m, [0.3], samples=1500, qmc=True)

@@ -58,7 +58,7 @@ def test_every_preset_builds_and_is_finite(model):
     for name in presets.materials(model):
         m = clbrdf.Model(model, preset=name)
         assert m.channels == 3
-        f = m.eval(wi, wo)
+        f = m.eval(wo, wi)
         assert f.shape == (4, 3) and np.all(np.isfinite(f)) and np.all(f >= 0), (name, f)
     for name in MATERIALS:
         m = clbrdf.Model(model, preset=name)
@@ -98,7 +98,7 @@ def test_cook_torrance_presets_match_bbm_formula(source):
     fits = presets.load(f"low_cooktorrance_{source}.fit")
     for name in ["alum-bronze", "chrome", "blue-rubber", "nickel", "pvc"]:
         m = clbrdf.Model("beckmann", preset=f"{name}:{source}", precision="double")
-        np.testing.assert_allclose(m.eval(wi, wo), cook_torrance_bbm(fits[name], wi, wo),
+        np.testing.assert_allclose(m.eval(wo, wi), cook_torrance_bbm(fits[name], wi, wo),
                                    rtol=1e-9, atol=1e-12)
 
 
@@ -127,7 +127,7 @@ def test_cli_presets():
                 "--json")
     assert r.returncode == 0, r.stderr
     v = json.loads(r.stdout)["value"]
-    want = clbrdf.Model("beckmann", preset="chrome:E1").eval([0, 0.6, 0.8], [0, -0.6, 0.8])
+    want = clbrdf.Model("beckmann", preset="chrome:E1").eval([0, -0.6, 0.8], [0, 0.6, 0.8])
     np.testing.assert_array_equal(v, want)
     r = run_cli("albedo", "beckmann", "--preset", "nope", "--mu", "1")
     assert r.returncode == 2 and "nope" in r.stderr

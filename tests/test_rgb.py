@@ -46,10 +46,10 @@ def channel(kw, c):
 def test_eval_is_per_channel(name, kw, precision, width):
     wi, wo = dirs()
     m3 = clbrdf.Model(name, channels=3, precision=precision, width=width, **kw)
-    f3 = m3.eval(wi, wo)
+    f3 = m3.eval(wo, wi)
     assert f3.shape == (len(wi), 3)
     for c in range(3):
-        f1 = clbrdf.Model(name, precision=precision, width=width, **channel(kw, c)).eval(wi, wo)
+        f1 = clbrdf.Model(name, precision=precision, width=width, **channel(kw, c)).eval(wo, wi)
         np.testing.assert_array_equal(f3[:, c], f1)
 
 
@@ -83,7 +83,7 @@ def test_mixture_weights_and_albedo(estimator):
     m3 = clbrdf.Model(name, channels=3, precision="double", **kw)
     wis, w, p = m3.sample(wo, seed=9)
     ok = p > 0
-    f = m3.eval(wis[ok], wo[ok])
+    f = m3.eval(wo[ok], wis[ok])
     np.testing.assert_allclose(w[ok], f * wis[ok, 2:3] / p[ok, None], rtol=1e-9)
     np.testing.assert_allclose(m3.pdf(wo[ok], wis[ok]), p[ok], rtol=1e-9)
     mu = [0.15, 0.6, 1.0]
@@ -122,7 +122,7 @@ def test_cli_rgb():
                 "--wo", "0.6,0,0.8", "--json")
     assert r.returncode == 0, r.stderr
     v = json.loads(r.stdout)["value"]
-    one = [float(clbrdf.Model("ggx", alpha=0.3, kd=k).eval([0, 0, 1], [0.6, 0, 0.8]))
+    one = [float(clbrdf.Model("ggx", alpha=0.3, kd=k).eval([0.6, 0, 0.8], [0, 0, 1]))
            for k in (0.1, 0.2, 0.3)]
     np.testing.assert_array_equal(v, one)
     r = run_cli("eval", "ggx", "-p", "alpha=0.3,0.2,0.1", "--wi", "0,0,1", "--wo", "0,0,1")

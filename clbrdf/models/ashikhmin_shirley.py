@@ -69,6 +69,7 @@ def configure(opts: dict, given: set):
 
 SPEC = ModelSpec(
     name="ashikhmin_shirley",
+    ref="ashikhmin_shirley",
     title="Ashikhmin-Shirley 2000 anisotropic Phong (specular eq 16, diffuse eq 14)",
     reference="Ashikhmin & Shirley 2000 eq 16 (specular), eq 11 (Schlick F), eq 14 (diffuse), "
               "eq 5, 18-20 (sampler)",

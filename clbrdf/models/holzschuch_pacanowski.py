@@ -49,6 +49,7 @@ def configure(opts: dict, given: set):
 
 HOLZSCHUCH_PACANOWSKI = ModelSpec(
     name="holzschuch_pacanowski",
+    ref="holzschuch_pacanowski",
     title="Holzschuch & Pacanowski 2015: diffuse + diffraction + exponential-power reflection",
     reference="Holzschuch & Pacanowski 2015 eq 17-27 (BRDF), eq 22-23 (sampling), section 5.5 "
               "(lobe mixture)",
@@ -63,6 +64,7 @@ EXPPOW = microfacet.spec(
     "exppow", "Microfacet, exponential-power distribution (alpha = sigma)",
     "Holzschuch & Pacanowski 2015 eq 18-19 (D), eq 20-21 (Smith Lambda, tabulated), eq 22-23 "
     "(sampling)",
-    header="dist_exppow.h", shape=P_PARAM, samplers=("ndf",), aniso=False)
+    header="dist_exppow.h", shape=P_PARAM, samplers=("ndf",), aniso=False,
+    ref="holzschuch_pacanowski")
 
 SPECS = (HOLZSCHUCH_PACANOWSKI, EXPPOW)

@@ -3,6 +3,7 @@ from ..spec import ModelSpec, Param
 
 SPEC = ModelSpec(
     name="lambert",
+    ref="microfacet",
     title="Lambertian",
     reference="Lambert 1760; f = kd / pi",
     header="lambert.h",

@@ -64,6 +64,7 @@ def _configure_microfacet(opts: dict, given: set):
 
 LOW_SMOOTH = ModelSpec(
     name="low_smooth",
+    ref="low",
     title="Löw et al. 2012 smooth-surface model (projected deviation vector, ABC lobe)",
     reference="Löw et al. 2012 eq 11-14 (model), eq 34 (two lobes), eq 17-22 (sampler)",
     header="low_smooth.h",
@@ -76,6 +77,7 @@ LOW_SMOOTH = ModelSpec(
 
 LOW_MICROFACET = ModelSpec(
     name="low_microfacet",
+    ref="low",
     title="Löw et al. 2012 microfacet ABC model (V-cavity G, dielectric Fresnel)",
     reference="Löw et al. 2012 eq 11, 15 (model), eq 23-28 (sampler)",
     header="low_microfacet.h",

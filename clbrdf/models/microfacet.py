@@ -76,7 +76,7 @@ def configure(dist: str, shape: str | None = None, header: str | None = None,
 
 
 def spec(name: str, title: str, reference: str, *, header: str | None = None,
-         shape: Param | None = None, samplers=("vndf", "ndf"), aniso: bool = True) -> ModelSpec:
+         shape: Param | None = None, samplers=("vndf", "ndf"), aniso: bool = True, ref: str = "microfacet") -> ModelSpec:
     """A microfacet model with distribution ``name`` (see the module docstring)."""
     params = PARAMS + ((shape,) if shape else ())
     if not aniso:
@@ -90,7 +90,7 @@ def spec(name: str, title: str, reference: str, *, header: str | None = None,
     return ModelSpec(name=name, title=title, reference=reference, header="microfacet.h",
                      prefix="microfacet", params=params, options=options,
                      configure_fn=configure(name, shape.name if shape else None, header, samplers),
-                     notes=notes, anisotropic_fn=lambda d, v: d.get("MF_ANISO") == "1")
+                     notes=notes, anisotropic_fn=lambda d, v: d.get("MF_ANISO") == "1", ref=ref)
 
 
 GGX = spec("ggx", "Microfacet, GGX (Trowbridge-Reitz) distribution",

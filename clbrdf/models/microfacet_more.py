@@ -32,7 +32,7 @@ GTR = _with_alpha(spec(
     "(gamma = 1 closed form)",
     header="dist_gtr.h",
     shape=Param("gamma", "GTR exponent (2: GGX, 1: Burley's clearcoat)", 0.5, 4.0, 2.0),
-    samplers=("ndf",), aniso=False), *GTR_ALPHA, 0.5)
+    samplers=("ndf",), aniso=False, ref="distributions"), *GTR_ALPHA, 0.5)
 
 SGD = _with_alpha(spec(
     "sgd", "Microfacet, shifted gamma distribution (SGD), isotropic",
@@ -40,7 +40,7 @@ SGD = _with_alpha(spec(
     "Lambda tabulated",
     header="dist_sgd.h",
     shape=Param("p", "SGD power p (1 - p is the incomplete gamma's shape)", 0.0, 2.0, 0.5),
-    samplers=("ndf",), aniso=False), *SGD_ALPHA, 0.01)
+    samplers=("ndf",), aniso=False, ref="distributions"), *SGD_ALPHA, 0.01)
 
 
 # ---- the full SGD BRDF of the published fits (dj_brdf djb::sgd)
@@ -70,6 +70,7 @@ def _bagher_configure(opts: dict, given: set):
 
 SGD_BAGHER = ModelSpec(
     name="sgd_bagher",
+    ref="distributions",
     title="SGD BRDF of Bagher et al. 2012 (the published fits' formula, all parameters per channel)",
     reference="Bagher, Soler & Holzschuch 2012 eq 6, 8, 10; jdupuy/dj_brdf djb::sgd",
     header="sgd_bagher.h", prefix="sgd_bagher", params=BAGHER_PARAMS,

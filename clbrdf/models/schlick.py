@@ -61,6 +61,7 @@ def configure(opts: dict, given: set):
 
 SPEC = ModelSpec(
     name="schlick",
+    ref="schlick",
     title="Schlick 1994 customizable reflectance (SINGLE / DOUBLE, eq 12/15/17/18)",
     reference="Schlick 1994 eq 9 (materials), 10-11 (S), 12/15/17/18 (D), 14 (Z, A), 16 (G); "
               "sampler: docs/models/schlick.md",

@@ -19,14 +19,14 @@ the diffuse terms by the cosine density; mixture probability of the cosine lobe
 p_d = w_d / (w_d + w_s), w_d = rd (1 - rs) (1 - (1 - n.wo/2)^5) + kd (the diffuse terms' exact
 albedo), w_s = ks F(n.wo) (the specular albedo of a mirror with this Fresnel factor).
 
-    eval(wi, wo, **params), pdf(wo, wi, **params), albedo(mu, phi=0.0, tol=1e-8, **params)
+    eval(wo, wi, **params), pdf(wo, wi, **params), albedo(mu, phi=0.0, tol=1e-8, **params)
 """
 from __future__ import annotations
 
 import numpy as np
 from scipy import integrate
 
-from .. import reference as R
+from .. import quadrature as R
 
 INV_PI = 1 / np.pi
 DEFAULTS = dict(nu=10.0, nv=10.0, rs=0.05, rd=0.0, kd=0.0, ks=1.0, eta=1.5)
@@ -84,7 +84,7 @@ def norm_const(nu, nv):
     return np.sqrt((nu + 1) * (nv + 1))
 
 
-def specular(wi, wo, cfg):
+def specular(wo, wi, cfg):
     """rho_s of eq 16 (without ks)."""
     wi, wo = _unit(wi), _unit(wo)
     h = _unit(wi + wo)
@@ -101,7 +101,7 @@ def one_minus_pow5(x):
     return 1 - (1 - np.asarray(x, float) / 2) ** 5
 
 
-def diffuse(wi, wo, cfg):
+def diffuse(wo, wi, cfg):
     """rho_d of eq 14 plus kd / pi."""
     wi, wo = _unit(wi), _unit(wo)
     ci, co = wi[..., 2], wo[..., 2]
@@ -110,10 +110,10 @@ def diffuse(wi, wo, cfg):
     return np.where((ci > 0) & (co > 0), f, 0.0)
 
 
-def eval(wi, wo, **params):
+def eval(wo, wi, **params):
     """BRDF value (1/sr); 0 unless both directions are above the horizon."""
     cfg = configure(**params)
-    return cfg["ks"] * specular(wi, wo, cfg) + diffuse(wi, wo, cfg)
+    return cfg["ks"] * specular(wo, wi, cfg) + diffuse(wo, wi, cfg)
 
 
 def diffuse_albedo(mu, **params):
@@ -187,7 +187,7 @@ class HalfMap:
     phi = atan2(sqrt(nu+1) sin 2 pi t, sqrt(nv+1) cos 2 pi t) (the CDF of eq 19 over the circle),
     xi2 = s xi2_max(phi), cos theta_h = (1 - xi2)^(1/(e+1)); xi2_max = 1 - cos(theta_max)^(e+1),
     theta_max(phi) the half-vector angle at which wi reaches the horizon (as in
-    clbrdf.reference.halfvector_map), so the domain is exactly the upper hemisphere.
+    clbrdf.ref.microfacet.halfvector_map), so the domain is exactly the upper hemisphere.
     Density: the lobe density p_h(h) / (4 wo.h); Jacobian xi2_max."""
 
     def __init__(self, wo, nu, nv):
@@ -227,10 +227,10 @@ def albedo(mu, phi=0.0, tol=1e-8, **params):
     parts = []
     if np.any(cfg["ks"] != 0):
         hm = HalfMap(wo, cfg["nu"], cfg["nv"])
-        parts.append((lambda wi: cfg["ks"] * specular(wi, wo, cfg) * wi[..., 2],
+        parts.append((lambda wi: cfg["ks"] * specular(wo, wi, cfg) * wi[..., 2],
                       [(hm.points, hm.density)]))
     if np.any(cfg["rd"] != 0) or np.any(cfg["kd"] != 0):
-        parts.append((lambda wi: diffuse(wi, wo, cfg) * wi[..., 2], [R.cosine_map()]))
+        parts.append((lambda wi: diffuse(wo, wi, cfg) * wi[..., 2], [R.cosine_map()]))
     for g, maps in parts:
         v, e = R.hemisphere_integral(g, maps, tol / max(1, len(parts)))
         value += v
@@ -259,3 +259,40 @@ def spec_fraction_above(mu, phi, nu, nv):
         tot += v
         err += e
     return tot, err
+
+
+# ---------------------------------------------------------------------------------------------
+# The registered reference (clbrdf.ref.Reference)
+
+from . import Reference  # noqa: E402
+
+
+class ASReference(Reference):
+    """The sampler mixes the cosine lobe with probability sum wd / (sum wd + sum ws) over the
+    channels (``diffuse_prob`` per channel)."""
+    def _kw(self, v):
+        return {**{k: float(x) for k, x in v.items()}, "fresnel": self.options["fresnel"]}
+
+    def eval1(self, wo, wi, v, c):
+        return eval(wo, wi, **self._kw(v))
+
+    def pdf(self, wo, wi):
+        wo, wi = _unit(wo), _unit(wi)
+        co = wo[..., 2]
+        wd = ws = 0.0
+        for v in self.channel_values():
+            cfg = configure(**self._kw(v))
+            wd = wd + cfg["rd"] * (1 - cfg["rs"]) * one_minus_pow5(co) + cfg["kd"]
+            ws = ws + cfg["ks"] * fresnel(cfg, co)
+        s = wd + ws
+        with np.errstate(divide="ignore", invalid="ignore"):
+            pd = np.where(s > 0, wd / np.where(s > 0, s, 1.0), 0.0)
+        ps = spec_pdf(wo, wi, float(self.params["nu"]), float(self.params["nv"]))
+        cosine = np.maximum(wi[..., 2], 0) * INV_PI
+        return np.where((wi[..., 2] > 0) & (co > 0), pd * cosine + (1 - pd) * ps, 0.0)
+
+    def albedo1(self, mu, phi, tol, v, c):
+        return albedo(mu, phi, tol, **self._kw(v))
+
+
+REFERENCES = {"ashikhmin_shirley": ASReference}

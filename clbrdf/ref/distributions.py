@@ -255,7 +255,7 @@ def bagher_ndf(h, alpha, p, kap):
     return kap * np.exp(-y) / (np.pi * y ** p * c2 * c2)
 
 
-def bagher_eval(wi, wo, rho_d, rho_s, alpha, p, f0, f1, lam, c, k, theta0, kap=None):
+def bagher_eval(wo, wi, rho_d, rho_s, alpha, p, f0, f1, lam, c, k, theta0, kap=None):
     """One channel of dj_brdf djb::sgd::eval:
     (rhoD + rhoS F D G1(wi) G1(wo) / (cos_i cos_o)) / pi; 0 below the horizon."""
     wi, wo = np.asarray(wi, float), np.asarray(wo, float)
@@ -296,13 +296,13 @@ def _lambda_fn(model, alpha, shape):
     return lam
 
 
-def eval(model, wi, wo, *, alpha, masking="correlated", **params):
-    """f(wi, wo) of ``gtr`` (gamma=...) or ``sgd`` (p=...): D G / (4 cos_i cos_o), F = 1;
+def eval(model, wo, wi, *, alpha, masking="correlated", **params):
+    """f(wo, wi) of ``gtr`` (gamma=...) or ``sgd`` (p=...): D G / (4 cos_i cos_o), F = 1;
     masking none, separable or correlated (Smith, Lambda by quadrature); ``sgd_bagher``: see
     bagher_eval (every parameter a scalar: one channel)."""
     wi, wo = np.asarray(wi, float), np.asarray(wo, float)
     if model == "sgd_bagher":
-        return bagher_eval(wi, wo, alpha=alpha, **params)
+        return bagher_eval(wo, wi, alpha=alpha, **params)
     shape = float(params.pop(_shape_name(model)))
     if params:
         raise TypeError(f"unused parameters {sorted(params)}")
@@ -355,12 +355,12 @@ def pdf(model, wo, wi, *, alpha, **params):
 
 
 def albedo(model, mu, phi=0.0, tol=1e-8, **params):
-    """E(wo) = integral f cos_i dw_i by clbrdf.reference.hemisphere_integral, (value, err).
+    """E(wo) = integral f cos_i dw_i by clbrdf.quadrature.hemisphere_integral, (value, err).
     gtr/sgd with masking="none" (the default here: Lambda by quadrature at every node would be
     slow) or a Smith masking; the half-vector map of GGX (GTR: same tails x^-2) or of Beckmann with
     a^2 = alpha (SGD: same tail e^-x/alpha). sgd_bagher (scalar parameters): specular term over
     that map, rho_d / pi over the cosine map."""
-    from .. import reference as REF
+    from . import microfacet as REF
     wo = REF.direction(float(mu), float(phi))
     params = dict(params)
     alpha = float(params.pop("alpha"))
@@ -372,10 +372,90 @@ def albedo(model, mu, phi=0.0, tol=1e-8, **params):
         rho_d = float(params["rho_d"])
         spec = dict(params, rho_d=0.0)
         v1, e1 = REF.hemisphere_integral(
-            lambda wi: bagher_eval(wi, wo, alpha=alpha, **spec) * wi[..., 2], [hv], tol / 2)
+            lambda wi: bagher_eval(wo, wi, alpha=alpha, **spec) * wi[..., 2], [hv], tol / 2)
         v2, e2 = REF.hemisphere_integral(lambda wi: rho_d / np.pi * wi[..., 2],
                                          [REF.cosine_map()], tol / 2)
         return v1 + v2, e1 + e2
     params.setdefault("masking", "none")
     return REF.hemisphere_integral(
-        lambda wi: eval(model, wi, wo, alpha=alpha, **params) * wi[..., 2], [hv], tol)
+        lambda wi: eval(model, wo, wi, alpha=alpha, **params) * wi[..., 2], [hv], tol)
+
+
+# ---------------------------------------------------------------------------------------------
+# The registered references (clbrdf.ref.Reference)
+
+from . import microfacet as _mf  # noqa: E402
+
+
+class TabulatedReference(_mf.MicrofacetReference):
+    """gtr and sgd: the microfacet reference with D of this module and Lambda by quadrature (GTR
+    gamma = 1 in closed form); quadrature map: GGX's (GTR, same x^-2 tails) or Beckmann's with
+    a^2 = alpha (SGD, same e^-x/alpha tail)."""
+    def rough(self):
+        return float(self.params["alpha"]), float(self.params["alpha"])
+
+    def shape(self):
+        return float(self.params[_shape_name(self.name)])
+
+    def D(self, h):
+        return D(self.name, h, float(self.params["alpha"]), self.shape())
+
+    _spline = None
+
+    def Lambda(self, w):
+        if self._spline is None:
+            return _lambda_fn(self.name, float(self.params["alpha"]), self.shape())(w)
+        w = np.asarray(w, float)
+        z = w[..., 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u = np.log(np.hypot(w[..., 0], w[..., 1]) / z)
+        lo, hi = self._spline.x[0], self._spline.x[-1]
+        # beyond hi (cos theta < 1e-15) Lambda grows like tan theta
+        lam = np.exp(self._spline(np.clip(u, lo, hi)) + np.maximum(u - hi, 0)) - 1e-300
+        return np.where(z > 0, np.where(u < lo, 0.0, lam), np.inf)
+
+    def albedo1(self, mu, phi, tol, v, c):
+        """As the microfacet reference's, with Lambda from a cubic spline of log Lambda over
+        log tan theta in [-12, 36] (961 nodes of ``lambda_quad``; relative error about 1e-8):
+        Lambda by quadrature at every node of the 2-D rule would take minutes."""
+        from scipy.interpolate import CubicSpline
+        if self.options["masking"] in ("separable", "correlated") and self._spline is None:
+            u = np.linspace(-12, 36, 961)
+            lam = _lambda_fn(self.name, float(self.params["alpha"]), self.shape())
+            t = np.exp(u)
+            vals = lam(np.stack([t, 0 * u, np.ones_like(u)], -1) / np.sqrt(1 + t * t)[:, None])
+            self._spline = CubicSpline(u, np.log(vals + 1e-300))
+        try:
+            return super().albedo1(mu, phi, tol, v, c)
+        finally:
+            self._spline = None
+
+    def hv_map(self, wo):
+        a = float(self.params["alpha"])
+        if self.name == "gtr":
+            return _mf.halfvector_map("ggx", wo, a, a)
+        return _mf.halfvector_map("beckmann", wo, math.sqrt(a), math.sqrt(a))
+
+
+class BagherReference(_mf.Reference):
+    """sgd_bagher: ``bagher_eval`` per channel; the sampler's channel and lobe mixture (``pdf``)."""
+    def _kw(self, v):
+        return {k: float(x) for k, x in v.items()}
+
+    def eval1(self, wo, wi, v, c):
+        return bagher_eval(wo, wi, **self._kw(v))
+
+    def pdf(self, wo, wi):
+        chans = self.channel_values()
+        kw = {k: [float(v[k]) for v in chans] for k in chans[0]}
+        alpha = kw.pop("alpha")
+        for k in ("lam", "c", "k", "theta0"):
+            kw.pop(k)
+        return pdf("sgd_bagher", wo, wi, alpha=alpha, **kw)
+
+    def albedo1(self, mu, phi, tol, v, c):
+        kw = self._kw(v)
+        return albedo("sgd_bagher", mu, phi, tol, **kw)
+
+
+REFERENCES = {"gtr": TabulatedReference, "sgd": TabulatedReference, "sgd_bagher": BagherReference}

@@ -33,7 +33,7 @@ import numpy as np
 from scipy import integrate, special
 from scipy.interpolate import CubicSpline
 
-from ..reference import INV_PI, cosine_map, dot, hemisphere_integral, normalize, reflect
+from ..quadrature import INV_PI, cosine_map, dot, hemisphere_integral, normalize, reflect
 
 WAVELENGTHS = (0.645, 0.526, 0.444)     # um, R G B (paper section 5.5)
 
@@ -160,7 +160,7 @@ def _channel(v, c):
     return v[..., c] if v.ndim and v.shape[-1] == 3 else v
 
 
-def eval(wi, wo, *, kd=0.0, ks=1.0, f0=1.0, kw=0.0, a=1.0, sigma=0.1, p=1.0, channels=1,
+def eval(wo, wi, *, kd=0.0, ks=1.0, f0=1.0, kw=0.0, a=1.0, sigma=0.1, p=1.0, channels=1,
          lam=None, energy="conserving"):
     """BRDF (1/sr), shape (...) for channels=1 (wavelength lam, default the green 0.526 um) or
     (..., 3) for channels=3 (R, G, B wavelengths; kd, ks, f0, kw per channel)."""
@@ -281,7 +281,7 @@ def albedo(mu, phi=0.0, tol=1e-8, **params):
         vals, errs = [], []
         for c in range(channels):
             def g(wi, c=c):
-                f = eval(wi, wo, **kw_)
+                f = eval(wo, wi, **kw_)
                 return (f[..., c] if channels == 3 else f) * wi[..., 2]
             v, e = hemisphere_integral(g, maps, tol_t)
             vals.append(v)
@@ -292,3 +292,45 @@ def albedo(mu, phi=0.0, tol=1e-8, **params):
     v3, e3 = term("kd", cm, tol / 3)
     v, e = v1 + v2 + v3, e1 + e2 + e3
     return (v[0], e[0]) if channels == 1 else (v, e)
+
+
+# ---------------------------------------------------------------------------------------------
+# The registered references (clbrdf.ref.Reference)
+
+from . import Reference, microfacet as _mf  # noqa: E402
+
+_BANDS = {"red": WAVELENGTHS[0], "green": WAVELENGTHS[1], "blue": WAVELENGTHS[2]}
+
+
+class HPReference(Reference):
+    """The model of this module; a one-channel model at the wavelength of ``band``."""
+    def _kw(self):
+        kw = {k: v for k, v in self.params.items()}
+        kw.update(channels=self.channels, energy=self.options["diffraction_norm"])
+        if self.channels == 1:
+            kw["lam"] = _BANDS[self.options["band"]]
+        return kw
+
+    def eval(self, wo, wi):
+        return eval(np.asarray(wo, float), np.asarray(wi, float), **self._kw())
+
+    def pdf(self, wo, wi):
+        return pdf(np.asarray(wo, float), np.asarray(wi, float), **self._kw())
+
+    def albedo(self, mu, phi=0.0, tol=1e-8):
+        return albedo(float(mu), float(phi), tol, **self._kw())
+
+
+class ExpPowReference(_mf.MicrofacetReference):
+    """exppow: the microfacet reference with this module's D (sigma = alpha) and Lambda."""
+    def D(self, h):
+        return D(h, float(self.params["alpha"]), float(self.params["p"]))
+
+    def Lambda(self, w):
+        return Lambda(w, float(self.params["alpha"]), float(self.params["p"]))
+
+    def hv_map(self, wo):
+        return halfvector_map(wo, float(self.params["alpha"]), float(self.params["p"]))
+
+
+REFERENCES = {"holzschuch_pacanowski": HPReference, "exppow": ExpPowReference}

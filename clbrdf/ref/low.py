@@ -7,7 +7,7 @@ taken exactly where C == 1), and quadrature maps that follow each lobe.
 Directions: arrays (..., 3), local frame (normal z); wi towards the light, wo towards the viewer.
 Parameters are scalars (one channel) and broadcast with the directions.
 
-    eval(wi, wo, model="low_smooth", **params)     BRDF (1/sr)
+    eval(wo, wi, model="low_smooth", **params)     BRDF (1/sr)
     pdf(wo, wi, model="low_smooth", **params)      solid-angle density of the kernels' sampler
     albedo(mu, phi=0.0, tol=1e-8, model=..., **params) -> (E, err)
 
@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import reference as R
+from .. import quadrature as R
 
 INV_PI = 1 / np.pi
 SMOOTH_DEFAULTS = dict(a=1.0, b=100.0, c=1.0, eta=1.5, kd=0.0, a2=0.0, b2=10.0, c2=1.0)
@@ -52,7 +52,7 @@ def abc(a, b, c, f2):
 # ---------------------------------------------------------------------------------------------
 # Smooth-surface model (eq 12-14, 34)
 
-def smooth_eval(wi, wo, a=1.0, b=100.0, c=1.0, eta=1.5, kd=0.0, a2=0.0, b2=10.0, c2=1.0):
+def smooth_eval(wo, wi, a=1.0, b=100.0, c=1.0, eta=1.5, kd=0.0, a2=0.0, b2=10.0, c2=1.0):
     wi, wo = _v(wi), _v(wo)
     Lp, Vp = wi[..., :2], wo[..., :2]
     dp2 = np.sum((Lp + Vp) ** 2, -1)                        # |Dp|^2 (eq 10)
@@ -124,12 +124,12 @@ def smooth_pdf(wo, wi, a=1.0, b=100.0, c=1.0, eta=1.5, kd=0.0, a2=0.0, b2=10.0, 
 # ---------------------------------------------------------------------------------------------
 # Microfacet ABC model (eq 15, 23-28)
 
-def half(wi, wo):
+def half(wo, wi):
     h = _v(wi) + _v(wo)
     return h / np.linalg.norm(h, axis=-1, keepdims=True)
 
 
-def vcavity(wi, wo, h):
+def vcavity(wo, wi, h):
     ih = np.sum(wi * h, -1)
     oh = np.sum(wo * h, -1)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -137,13 +137,13 @@ def vcavity(wi, wo, h):
     return np.where((ih > 0) & (oh > 0), g, 0.0)
 
 
-def microfacet_eval(wi, wo, a=1.0, b=100.0, c=1.0, eta=1.5, kd=0.0):
+def microfacet_eval(wo, wi, a=1.0, b=100.0, c=1.0, eta=1.5, kd=0.0):
     wi, wo = _v(wi), _v(wo)
-    h = half(wi, wo)
+    h = half(wo, wi)
     # 1 - n.h from the tangent part of h: sin^2 / (1 + cos)
     x = (h[..., 0] ** 2 + h[..., 1] ** 2) / (1 + h[..., 2])
     with np.errstate(divide="ignore", invalid="ignore"):
-        spec = abc(a, b, c, x) * fresnel(eta, np.sum(wi * h, -1)) * vcavity(wi, wo, h) / (
+        spec = abc(a, b, c, x) * fresnel(eta, np.sum(wi * h, -1)) * vcavity(wo, wi, h) / (
             np.pi * wi[..., 2] * wo[..., 2])
     return np.where((wi[..., 2] > 0) & (wo[..., 2] > 0), kd * INV_PI + spec, 0.0)
 
@@ -158,7 +158,7 @@ def h_norm(b, c):
 def h_pdf(b, c, wo, wi):
     """Solid-angle density of wi under the eq 23-28 sampler."""
     wi, wo = _v(wi), _v(wo)
-    h = half(wi, wo)
+    h = half(wo, wi)
     x = (h[..., 0] ** 2 + h[..., 1] ** 2) / (1 + h[..., 2])
     oh = np.sum(wo * h, -1)
     return np.where(wi[..., 2] > 0, h_norm(b, c) * (1 + b * x) ** (-c) / (4 * oh), 0.0)
@@ -232,9 +232,9 @@ def _params(model, params):
     return d
 
 
-def eval(wi, wo, model="low_smooth", **params):
+def eval(wo, wi, model="low_smooth", **params):
     p = _params(model, params)
-    return (smooth_eval if model == "low_smooth" else microfacet_eval)(wi, wo, **p)
+    return (smooth_eval if model == "low_smooth" else microfacet_eval)(wo, wi, **p)
 
 
 def pdf(wo, wi, model="low_smooth", **params):
@@ -316,7 +316,7 @@ class HalfMap:
         return wi, jac
 
     def coords(self, wi):
-        h = half(wi, self.wo)
+        h = half(self.wo, wi)
         t = np.mod(np.arctan2(h[..., 1], h[..., 0]) / (2 * np.pi), 1.0)
         rho = np.hypot(h[..., 0], h[..., 1]) / h[..., 2] / self.a
         s = np.arcsinh(rho) / self._xmax(2 * np.pi * t)
@@ -339,14 +339,14 @@ def albedo(mu, phi=0.0, tol=1e-8, model="low_smooth", **params):
     kd = p.pop("kd")
     value, err = float(kd), 0.0
     if model == "low_smooth":
-        lobes = [(DiskMap(wo, p["b"]), lambda wi: fresnel(p["eta"], _cos_d(wi, wo))
-                  * abc(p["a"], p["b"], p["c"], _dp2(wi, wo)) * wi[..., 2])]
+        lobes = [(DiskMap(wo, p["b"]), lambda wi: fresnel(p["eta"], _cos_d(wo, wi))
+                  * abc(p["a"], p["b"], p["c"], _dp2(wo, wi)) * wi[..., 2])]
         if p["a2"] != 0:
             lobes.append((DiskMap(wo, p["b2"]),
-                          lambda wi: abc(p["a2"], p["b2"], p["c2"], _dp2(wi, wo)) * wi[..., 2]))
+                          lambda wi: abc(p["a2"], p["b2"], p["c2"], _dp2(wo, wi)) * wi[..., 2]))
     else:
         lobes = [(HalfMap(wo, half_width(p["b"])),
-                  lambda wi: microfacet_eval(wi, wo, **p) * wi[..., 2])]
+                  lambda wi: microfacet_eval(wo, wi, **p) * wi[..., 2])]
     for m, g in lobes:
         v, e = R.hemisphere_integral(g, [(m.points, m.density)], tol / len(lobes))
         value += v
@@ -354,11 +354,11 @@ def albedo(mu, phi=0.0, tol=1e-8, model="low_smooth", **params):
     return value, err
 
 
-def _dp2(wi, wo):
+def _dp2(wo, wi):
     return np.sum((wi[..., :2] + wo[:2]) ** 2, -1)
 
 
-def _cos_d(wi, wo):
+def _cos_d(wo, wi):
     return np.sqrt(np.maximum(1 - np.sum((wi[..., :2] - wo[:2]) ** 2, -1) / 4, 0))
 
 
@@ -371,7 +371,7 @@ def albedo_variance(mu, phi=0.0, tol=1e-8, **params):
     m = DiskMap(wo, p["b"])
 
     def fc(wi):
-        return fresnel(p["eta"], _cos_d(wi, wo)) * abc(p["a"], p["b"], p["c"], _dp2(wi, wo)) * wi[..., 2]
+        return fresnel(p["eta"], _cos_d(wo, wi)) * abc(p["a"], p["b"], p["c"], _dp2(wo, wi)) * wi[..., 2]
 
     def m2(wi):
         q = disk_pdf(p["b"], wo, wi)
@@ -380,3 +380,32 @@ def albedo_variance(mu, phi=0.0, tol=1e-8, **params):
     E, eE = R.hemisphere_integral(fc, [(m.points, m.density)], tol)
     M2, eM = R.hemisphere_integral(m2, [(m.points, m.density)], tol)
     return E, M2, eE, eM
+
+
+# ---------------------------------------------------------------------------------------------
+# The registered references (clbrdf.ref.Reference)
+
+from . import Reference  # noqa: E402
+
+
+class LowReference(Reference):
+    """low_smooth and low_microfacet. The sampler's mixture weights are linear in a, a2 and kd,
+    so an RGB model's density is the density with those summed over the channels."""
+    def _kw(self, v):
+        return {k: float(x) for k, x in v.items()}
+
+    def eval1(self, wo, wi, v, c):
+        return eval(wo, wi, model=self.name, **self._kw(v))
+
+    def pdf(self, wo, wi):
+        chans = self.channel_values()
+        kw = self._kw(chans[0])
+        for k in set(self.config.spectral):
+            kw[k] = sum(float(v[k]) for v in chans)
+        return pdf(np.asarray(wo, float), np.asarray(wi, float), model=self.name, **kw)
+
+    def albedo1(self, mu, phi, tol, v, c):
+        return albedo(mu, phi, tol, model=self.name, **self._kw(v))
+
+
+REFERENCES = {"low_smooth": LowReference, "low_microfacet": LowReference}

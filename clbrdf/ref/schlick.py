@@ -29,7 +29,7 @@ v' is 2/3). DOUBLE chooses layer 1 with probability sum_c S_c(v) / (sum_c S_c(v)
 import numpy as np
 from scipy import special
 
-from ..reference import hemisphere_integral
+from ..quadrature import hemisphere_integral
 
 INV_PI = 1 / np.pi
 MATERIALS = ("single", "double")
@@ -93,7 +93,7 @@ def Gs(r, v):
     return v / (r - r * v + v)                        # eq 16
 
 
-def directional(eq, r, p, psi, wi, wo, h):
+def directional(eq, r, p, psi, wo, wi, h):
     """D(t, v, v', w) of eq 12/15/17/18 (both directions above the horizon)."""
     v, vp = wo[..., 2], wi[..., 2]
     za = Z(r, h) * A(p, azimuth(h, psi)) / (4 * np.pi * v * vp)
@@ -112,7 +112,7 @@ def _unit(v):
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
-def eval(wi, wo, channels=1, **params):
+def eval(wo, wi, channels=1, **params):
     """BRDF R (1/sr); 0 unless wi.z > 0 and wo.z > 0. channels=3: c, c2 have a trailing axis of
     3 (or are scalars) and the result has one too."""
     cfg = configure(**params)
@@ -122,7 +122,7 @@ def eval(wi, wo, channels=1, **params):
         h = _unit(wi + wo)
         u = np.sum(wo * h, -1)
         layers = _layers(cfg)
-        ds = [directional(cfg["directional"], r, p, psi, wi, wo, h) for (_, r, p, psi) in layers]
+        ds = [directional(cfg["directional"], r, p, psi, wo, wi, h) for (_, r, p, psi) in layers]
         if channels == 3:
             u, ds = u[..., None], [d[..., None] for d in ds]
             valid = valid[..., None]
@@ -414,3 +414,30 @@ def _main():
 
 if __name__ == "__main__":
     _main()
+
+
+# ---------------------------------------------------------------------------------------------
+# The registered reference (clbrdf.ref.Reference)
+
+from . import Reference  # noqa: E402
+
+
+class SchlickReference(Reference):
+    """eval and pdf of this module with the options; per-channel c, c2 as trailing axes."""
+    def _kw(self, v):
+        return {**{k: np.asarray(x, float) for k, x in v.items()}, **self.options}
+
+    def eval(self, wo, wi):
+        return eval(np.asarray(wo, float), np.asarray(wi, float), channels=self.channels,
+                    **self._kw(self.params))
+
+    def pdf(self, wo, wi):
+        return pdf(np.asarray(wo, float), np.asarray(wi, float), channels=self.channels,
+                   **self._kw(self.params))
+
+    def albedo1(self, mu, phi, tol, v, c):
+        kw = {k: float(x) for k, x in v.items()}
+        return albedo(mu, phi, tol, **kw, **self.options)
+
+
+REFERENCES = {"schlick": SchlickReference}

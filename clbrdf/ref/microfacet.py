@@ -1,4 +1,4 @@
-"""Double-precision NumPy reference for the clbrdf models, and a deterministic albedo integrator.
+"""Double-precision NumPy reference of the Lambertian and microfacet (Beckmann, GGX) models.
 
 Written from the equations in ``shared/MODELS.md`` ("Conventions", "1. Building blocks"),
 independently of the OpenCL kernels, so that the kernels can be tested against it. Everything is
@@ -8,7 +8,7 @@ surface. Parameters broadcast against the leading (...) shape of the directions.
 
 Models: ``lambert`` (f = kd/pi) and the microfacet models ``beckmann`` and ``ggx``:
 
-    f = F(wi.h) D(h) G(wi, wo, h) / (4 cos_i cos_o) + kd/pi,    h = normalize(wi + wo).
+    f = F(wi.h) D(h) G(wo, wi, h) / (4 cos_i cos_o) + kd/pi,    h = normalize(wi + wo).
 
 Parameters: ``alpha`` or ``alpha_x``/``alpha_y``, ``f0``, ``eta``, ``k``, ``kd``; options:
 ``masking`` (none, vcavity, separable, correlated), ``fresnel`` (one, schlick, dielectric,
@@ -16,17 +16,14 @@ conductor), ``lobe_sampler`` (ndf, vndf). When ``fresnel`` is not given it follo
 parameters given, as the model specs do: eta and k -> conductor, eta -> dielectric,
 f0 -> schlick, none -> one. A parameter that the configuration does not use is an error.
 
-The integrator (``albedo``, ``albedo_avg``, ``hemisphere_integral``) is deterministic:
-Gauss-Legendre product rules on adaptively split panels over quadrature maps from [0,1]^2 to
-directions, combined with balance-heuristic weights (see ``hemisphere_integral``).
+``albedo`` and ``albedo_avg`` are deterministic: ``clbrdf.quadrature`` over the half-vector map
+of the lobe (``halfvector_map``) and the cosine map.
 """
-import warnings
-
 import numpy as np
-from numpy.polynomial.legendre import leggauss
 from scipy import special
 
-INV_PI = 1 / np.pi
+from ..quadrature import (INV_PI, _rule, _vec, adaptive_gl1, cosine_map, direction, dot,  # noqa: F401 (spherical: re-exported)
+                          hemisphere_integral, normalize, reflect, spherical)
 
 MODELS = ("lambert", "beckmann", "ggx")
 DISTRIBUTIONS = ("beckmann", "ggx")
@@ -37,34 +34,6 @@ SAMPLERS = ("uniform", "cosine", "ndf", "vndf", "brdf", "mis")
 
 DEFAULTS = {"alpha": 0.5, "f0": 0.04, "eta": 1.5, "k": 3.0}
 FRESNEL_PARAMS = {"one": (), "schlick": ("f0",), "dielectric": ("eta",), "conductor": ("eta", "k")}
-
-
-# ---------------------------------------------------------------------------------------------
-# Vector helpers
-
-def _vec(w):
-    return np.asarray(w, dtype=np.float64)
-
-
-def dot(a, b):
-    return np.sum(a * b, axis=-1)
-
-
-def normalize(v):
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return v / n
-
-
-def reflect(wo, h):
-    """Mirror wo about h: 2 (wo.h) h - wo."""
-    return 2 * dot(wo, h)[..., None] * h - wo
-
-
-def spherical(theta, phi):
-    """Unit vector with polar angle theta and azimuth phi (arrays broadcast)."""
-    s = np.sin(theta)
-    return np.stack(np.broadcast_arrays(s * np.cos(phi), s * np.sin(phi), np.cos(theta)), -1)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -121,7 +90,7 @@ def G1(dist, w, alpha_x, alpha_y):
     return 1 / (1 + Lambda(dist, w, alpha_x, alpha_y))
 
 
-def G(masking, dist, wi, wo, h, alpha_x, alpha_y):
+def G(masking, dist, wo, wi, h, alpha_x, alpha_y):
     """Masking-shadowing term for the given option."""
     wi, wo, h = _vec(wi), _vec(wo), _vec(h)
     shape = np.broadcast_shapes(wi.shape, wo.shape, h.shape)[:-1]
@@ -220,27 +189,27 @@ def _isotropic(cfg):
 # ---------------------------------------------------------------------------------------------
 # BRDF value
 
-def eval_specular(cfg, wi, wo):
+def eval_specular(cfg, wo, wi):
     """Microfacet term F D G / (4 cos_i cos_o); 0 outside the upper hemisphere."""
     wi, wo = _vec(wi), _vec(wo)
     ci, co = wi[..., 2], wo[..., 2]
     valid = (ci > 0) & (co > 0)
     h = normalize(wi + wo)
     f = (_fresnel(cfg, dot(wi, h)) * D(cfg["dist"], h, cfg["ax"], cfg["ay"])
-         * G(cfg["masking"], cfg["dist"], wi, wo, h, cfg["ax"], cfg["ay"]))
+         * G(cfg["masking"], cfg["dist"], wo, wi, h, cfg["ax"], cfg["ay"]))
     with np.errstate(divide="ignore", invalid="ignore"):
         f = f / (4 * ci * co)
     return np.where(valid, f, 0.0)
 
 
-def eval(model, wi, wo, **params):
-    """BRDF value f(wi, wo) in 1/sr; 0 when wi.z <= 0 or wo.z <= 0."""
+def eval(model, wo, wi, **params):
+    """BRDF value f(wo, wi) in 1/sr; 0 when wi.z <= 0 or wo.z <= 0."""
     cfg = configure(model, **params)
     wi, wo = _vec(wi), _vec(wo)
     valid = (wi[..., 2] > 0) & (wo[..., 2] > 0)
     f = cfg["kd"] * INV_PI
     if model != "lambert":
-        f = f + eval_specular(cfg, wi, wo)
+        f = f + eval_specular(cfg, wo, wi)
     return np.where(valid, f, 0.0)
 
 
@@ -301,24 +270,7 @@ def pdf(model, wo, wi, sampler="brdf", **params):
 
 
 # ---------------------------------------------------------------------------------------------
-# Quadrature maps: [0,1]^2 -> upper hemisphere
-#
-# A map is a pair of functions (points, density):
-#   points(s, t) -> (wi, jac): the direction for (s, t) in [0,1]^2 and |du/d(s,t)|, the Jacobian
-#       from (s, t) to the map's own unit square u, on which wi has solid-angle density p;
-#   density(wi) -> p(wi), the same density at any wi (needed by the balance heuristic).
-
-def cosine_map():
-    """Cosine-weighted hemisphere: sin^2 theta = s, phi = 2 pi t; p = cos_i / pi."""
-    def points(s, t):
-        r, phi = np.sqrt(s), 2 * np.pi * t
-        wi = np.stack([r * np.cos(phi), r * np.sin(phi), np.sqrt(1 - s)], -1)
-        return wi, np.ones_like(s)
-
-    def density(wi):
-        return np.maximum(wi[..., 2], 0) * INV_PI
-    return points, density
-
+# Quadrature map of the specular lobe
 
 def halfvector_map(dist, wo, alpha_x, alpha_y):
     """Half vectors by inverting the NDF's CDF, reflected: wi = reflect(wo, h).
@@ -368,139 +320,10 @@ def halfvector_map(dist, wo, alpha_x, alpha_y):
 
 
 # ---------------------------------------------------------------------------------------------
-# Adaptive tensor Gauss-Legendre on [0,1]^2
-
-def _rule(n):
-    x, w = leggauss(n)
-    return (x + 1) / 2, w / 2
-
-
-def _panel_sums(func, s0, s1, t0, t1, x, w):
-    """Gauss-Legendre product rule on each panel [s0,s1] x [t0,t1] (arrays of panels)."""
-    ds, dt = (s1 - s0)[:, None], (t1 - t0)[:, None]
-    s = s0[:, None] + ds * x                     # (P, n)
-    t = t0[:, None] + dt * x
-    S = np.broadcast_to(s[:, :, None], s.shape + (len(x),))
-    T = np.broadcast_to(t[:, None, :], S.shape)
-    v = func(S.ravel(), T.ravel()).reshape(S.shape)
-    return np.einsum("pij,i,j->p", v, w, w) * (ds * dt)[:, 0]
-
-
-def _panels(func, s0, s1, t0, t1, x, w):
-    """Estimate and error per panel: the n x n rule I0 against the rule on the panel halved in
-    s (Is) and halved in t (It). The estimate is Is + It - I0 (both refinements), the error
-    es + et, with es = |Is - I0| and et = |It - I0| the errors in s and in t."""
-    sm, tm = (s0 + s1) / 2, (t0 + t1) / 2
-    i0 = _panel_sums(func, s0, s1, t0, t1, x, w)
-    i_s = _panel_sums(func, s0, sm, t0, t1, x, w) + _panel_sums(func, sm, s1, t0, t1, x, w)
-    i_t = _panel_sums(func, s0, s1, t0, tm, x, w) + _panel_sums(func, s0, s1, tm, t1, x, w)
-    return i_s + i_t - i0, np.abs(i_s - i0), np.abs(i_t - i0)
-
-
-def graded_edges(levels=30):
-    """Panel edges on [0,1] graded geometrically towards both ends: 0, 2^-levels, ..., 1/4,
-    1/2, 3/4, ..., 1 - 2^-levels, 1. Features attached to an end at any scale down to 2^-levels
-    (a lobe's tail squeezed against the horizon, a kink near it) then fall on small panels,
-    where the error estimates see them."""
-    g = 2.0 ** -np.arange(levels, 1, -1)
-    return np.concatenate([[0], g, [0.25, 0.5, 0.75], 1 - g[::-1], [1]])
-
-
-def adaptive_gl2(func, tol=1e-8, n=6, s_edges=None, t_edges=None, max_evals=5e7):
-    """Integral of func(s, t) over [0,1]^2 by n x n Gauss-Legendre panels, and an error estimate.
-
-    The initial panels are s_edges x t_edges (default: ``graded_edges()`` and eighths x 32 equal
-    panels). The estimates only see what the nodes see: a feature that falls between all the
-    nodes of a panel (a sliver where vcavity's min(1, ...) drops below 1) is missed, so the
-    initial grid is kept fine.
-    Globally adaptive: while the panels' errors (see ``_panels``) sum to more than tol, the
-    panels with the largest errors, enough that the others sum to at most tol/2, are split in
-    the variable(s) whose error dominates. The returned error is that sum: on every panel two
-    successive refinements agree within its share.
-    """
-    x, w = _rule(n)
-    if s_edges is None:
-        s_edges = np.union1d(graded_edges(), np.linspace(0, 1, 9))
-    if t_edges is None:
-        t_edges = np.linspace(0, 1, 33)
-    S0, T0 = np.meshgrid(s_edges[:-1], t_edges[:-1], indexing="ij")
-    S1, T1 = np.meshgrid(s_edges[1:], t_edges[1:], indexing="ij")
-    s0, s1, t0, t1 = S0.ravel(), S1.ravel(), T0.ravel(), T1.ravel()
-    val, es, et = _panels(func, s0, s1, t0, t1, x, w)
-    evals = 5 * n * n * s0.size
-    while True:
-        e = es + et
-        total = np.sum(e)
-        if total <= tol:
-            break
-        if evals > max_evals:
-            warnings.warn(f"adaptive_gl2: stopped after {evals} evaluations with error "
-                          f"{total:.3g} > tol {tol:.3g}", RuntimeWarning, stacklevel=2)
-            break
-        order = np.argsort(-e)
-        rest = total - np.cumsum(e[order])          # error left if the first k+1 are split
-        k = np.searchsorted(-rest, -tol / 2) + 1    # first k with rest <= tol/2
-        split, keep = order[:k], order[k:]
-        ps, pt = s1[split] - s0[split], t1[split] - t0[split]
-        ns = 1 + (es[split] >= et[split] / 4)
-        nt = 1 + (et[split] >= es[split] / 4)
-        # children of each split panel: 1 x 2, 2 x 1 or 2 x 2
-        reps = ns * nt
-        idx = np.repeat(np.arange(split.size), reps)
-        c = np.arange(idx.size) - np.repeat(np.cumsum(reps) - reps, reps)
-        cs, ct = c % ns[idx], c // ns[idx]
-        ws, wt = ps[idx] / ns[idx], pt[idx] / nt[idx]
-        c0 = s0[split][idx] + cs * ws
-        d0 = t0[split][idx] + ct * wt
-        cv, ces, cet = _panels(func, c0, c0 + ws, d0, d0 + wt, x, w)
-        evals += 5 * n * n * c0.size
-        s0, s1 = np.concatenate([s0[keep], c0]), np.concatenate([s1[keep], c0 + ws])
-        t0, t1 = np.concatenate([t0[keep], d0]), np.concatenate([t1[keep], d0 + wt])
-        val = np.concatenate([val[keep], cv])
-        es, et = np.concatenate([es[keep], ces]), np.concatenate([et[keep], cet])
-    return np.sum(val), np.sum(es + et)
-
-
-def hemisphere_integral(integrand, maps, tol=1e-8, weights=None, **kw):
-    """Integral of integrand(wi) over the upper hemisphere by balance-heuristic quadrature maps.
-
-    With maps k of densities p_k and weights c_k (default 1) the weights c_k p_k / sum_j c_j p_j
-    are a partition of unity, so
-
-        integral g dw = sum_k integral_[0,1]^2 g(wi_k(u)) c_k / sum_j c_j p_j(wi_k(u)) du.
-
-    Each map's integral runs on ``adaptive_gl2`` with its share of tol. Returns (value, err).
-    """
-    c = np.ones(len(maps)) if weights is None else np.asarray(weights, float)
-    value = err = 0.0
-    for k, (points, _) in enumerate(maps):
-        if c[k] == 0:
-            continue
-
-        def func(s, t, points=points, ck=c[k]):
-            wi, jac = points(s, t)
-            p = sum(cj * dens(wi) for cj, (_, dens) in zip(c, maps) if cj != 0)
-            g = integrand(wi)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                r = g * ck * jac / p
-            return np.where((p > 0) & (wi[..., 2] > 0), r, 0.0)
-        v, e = adaptive_gl2(func, tol / np.count_nonzero(c), **kw)
-        value += v
-        err += e
-    return value, err
-
-
-# ---------------------------------------------------------------------------------------------
 # Albedo
 
-def direction(mu, phi=0.0):
-    """Unit vector with cos theta = mu and azimuth phi."""
-    s = np.sqrt(1 - mu * mu)
-    return np.array([s * np.cos(phi), s * np.sin(phi), mu], float)
-
-
 def albedo(model, mu, phi=0.0, tol=1e-8, strategy="lobes", **params):
-    """E(wo) = integral f(wi, wo) cos_i dw_i for wo = direction(mu, phi); returns (E, err).
+    """E(wo) = integral f(wo, wi) cos_i dw_i for wo = direction(mu, phi); returns (E, err).
 
     strategy "lobes": each additive term of f is integrated with the map that matches it, the
     specular term with the half-vector map and kd/pi with the cosine map (a trivial partition
@@ -519,7 +342,7 @@ def albedo(model, mu, phi=0.0, tol=1e-8, strategy="lobes", **params):
     kd = float(cfg["kd"])
 
     def spec(wi):
-        return eval_specular(cfg, wi, wo) * wi[..., 2]
+        return eval_specular(cfg, wo, wi) * wi[..., 2]
     if strategy == "balance":
         return hemisphere_integral(lambda wi: spec(wi) + kd * INV_PI * wi[..., 2],
                                    [cos_map, hv_map], tol)
@@ -530,28 +353,6 @@ def albedo(model, mu, phi=0.0, tol=1e-8, strategy="lobes", **params):
         v, e = hemisphere_integral(lambda wi: kd * INV_PI * wi[..., 2], [cos_map], tol / 2)
         value, err = value + v, err + e
     return value, err
-
-
-def _adaptive_gl1(func, a, b, tol, n=8, max_panels=200):
-    """Integral of a scalar function over [a, b] by n-point Gauss-Legendre panels; (value, err).
-
-    A panel's estimate is its two halves' sum, its error the difference from the whole-panel
-    rule. Globally adaptive: the panel with the largest error is bisected until the errors sum
-    to at most tol (noise of order tol/10 in func, as from an inner quadrature, is tolerated).
-    """
-    x, w = _rule(n)
-
-    def panel(lo, hi):
-        mid = (lo + hi) / 2
-        q0, q1, q2 = (sum(wk * func(l + (h - l) * xk) for xk, wk in zip(x, w)) * (h - l)
-                      for l, h in ((lo, hi), (lo, mid), (mid, hi)))
-        return [abs(q1 + q2 - q0), q1 + q2, lo, hi]
-    panels = [panel(a, b)]
-    while sum(p[0] for p in panels) > tol and len(panels) < max_panels:
-        panels.sort()
-        _, _, lo, hi = panels.pop()
-        panels += [panel(lo, (lo + hi) / 2), panel((lo + hi) / 2, hi)]
-    return sum(p[1] for p in panels), sum(p[0] for p in panels)
 
 
 def albedo_avg(model, tol=1e-8, n_phi=8, **params):
@@ -572,7 +373,7 @@ def albedo_avg(model, tol=1e-8, n_phi=8, **params):
                 mu = x * x
                 cache[x] = 4 * albedo(model, mu, phi, tol_e, **params)[0] * mu * x if mu else 0.0
             return cache[x]             # 2 E(mu) mu dmu/dx
-        return _adaptive_gl1(g, 0.0, 1.0, tol / 2)
+        return adaptive_gl1(g, 0.0, 1.0, tol / 2)
 
     if _isotropic(cfg):
         value, err = over_mu(0.0)
@@ -581,3 +382,107 @@ def albedo_avg(model, tol=1e-8, n_phi=8, **params):
     parts = [over_mu(np.pi / 2 * xk) for xk in xs]
     return (sum(wk * v for wk, (v, _) in zip(ws, parts)),
             sum(wk * e for wk, (_, e) in zip(ws, parts)) + tol_e)
+
+
+# ---------------------------------------------------------------------------------------------
+# The registered references (clbrdf.ref.Reference): Lambert, and one microfacet reference for
+# every distribution (Beckmann and GGX here, GTR and SGD from distributions.py, the exponential
+# power from holzschuch_pacanowski.py).
+
+from . import Reference  # noqa: E402
+
+
+class LambertReference(Reference):
+    def eval1(self, wo, wi, v, c):
+        return np.where((wi[..., 2] > 0) & (wo[..., 2] > 0), v["kd"] * INV_PI, 0.0)
+
+    def pdf(self, wo, wi):
+        return np.where(wo[..., 2] > 0, cosine_map()[1](wi), 0.0)
+
+    def albedo1(self, mu, phi, tol, v, c):
+        return float(v["kd"]), 0.0
+
+
+class MicrofacetReference(Reference):
+    """f = ks F(wi.h) D(h) G(wo, wi, h) / (4 cos_i cos_o) + kd / pi (MODELS.md section 1). A
+    subclass for another distribution overrides ``D``, ``Lambda`` and ``hv_map``."""
+
+    def rough(self):
+        v = self.params
+        if "alpha_x" in v:
+            return float(v["alpha_x"]), float(v["alpha_y"])
+        return float(v["alpha"]), float(v["alpha"])
+
+    def D(self, h):
+        return D(self.name, h, *self.rough())
+
+    def hv_map(self, wo):
+        """The quadrature map of the specular lobe (``halfvector_map``)."""
+        return halfvector_map(self.name, wo, *self.rough())
+
+    def Lambda(self, w):
+        return Lambda(self.name, w, *self.rough())
+
+    def G1(self, w):
+        return 1 / (1 + self.Lambda(w))
+
+    def G(self, wo, wi, h):
+        masking = self.options["masking"]
+        if masking == "none":
+            return np.ones(np.broadcast_shapes(wo.shape, wi.shape)[:-1])
+        if masking == "vcavity":
+            return G("vcavity", None, wo, wi, h, 1.0, 1.0)
+        side = (dot(wi, h) > 0) & (dot(wo, h) > 0)
+        li, lo = self.Lambda(wi), self.Lambda(wo)
+        g = 1 / ((1 + li) * (1 + lo)) if masking == "separable" else 1 / (1 + li + lo)
+        return np.where(side, g, 0.0)
+
+    def F(self, c, v):
+        """ks times the Fresnel term of the configuration at cosine c."""
+        return v.get("ks", 1.0) * fresnel(self.options["fresnel"], c, v.get("f0"), v.get("eta"), v.get("k"))
+
+    def eval1(self, wo, wi, v, c):
+        ci, co = wi[..., 2], wo[..., 2]
+        valid = (ci > 0) & (co > 0)
+        h = normalize(wi + wo)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            f = self.F(dot(wi, h), v) * self.D(h) * self.G(wo, wi, h) / (4 * ci * co)
+        return np.where(valid, f + v.get("kd", 0.0) * INV_PI, 0.0)
+
+    def lobe_pdf(self, wo, wi):
+        h = normalize(wi + wo)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            if self.options["sampler"] == "vndf":
+                p = np.where(dot(wo, h) > 0, self.G1(wo) * self.D(h) / (4 * wo[..., 2]), 0.0)
+            else:
+                p = self.D(h) * h[..., 2] / (4 * np.abs(dot(wo, h)))
+        return p
+
+    def pdf(self, wo, wi):
+        """The lobe sampler, mixed with the cosine lobe with probability sum kd / (sum kd +
+        sum ks F(cos_o)) (sums over channels) when there is a kd."""
+        valid = (wi[..., 2] > 0) & (wo[..., 2] > 0)
+        p = self.lobe_pdf(wo, wi)
+        if "kd" in self.params:
+            chans = self.channel_values()
+            kd = sum(v["kd"] for v in chans)
+            fs = sum(self.F(wo[..., 2], v) for v in chans)
+            s = kd + fs
+            pd = np.where(s > 0, kd / np.where(s > 0, s, 1.0), 0.0)
+            p = pd * wi[..., 2] * INV_PI + (1 - pd) * p
+        return np.where(valid, p, 0.0)
+
+    def albedo1(self, mu, phi, tol, v, c):
+        """The specular term over ``hv_map``; the Lambertian term is kd."""
+        wo = direction(mu, phi)
+        hv = self.hv_map(wo)
+        kd = float(v.get("kd", 0.0))
+
+        def spec(wi):
+            return (self.eval1(wo, wi, v, c) - kd * INV_PI * (wi[..., 2] > 0)) * wi[..., 2]
+        e, err = hemisphere_integral(spec, [hv], tol)
+        return e + kd, err
+
+
+REFERENCES = {"lambert": LambertReference, "ggx": MicrofacetReference,
+              "beckmann": MicrofacetReference}

@@ -1,0 +1,37 @@
+"""Ward 1992 anisotropic Gaussian BRDF with Walter 2005's sampler; not in the four papers: the
+example model of docs/adding-a-model.md. Kernel: kernels/ward.h; reference: clbrdf.ref.ward.
+
+    f = kd / pi + ks exp(-tan^2 theta_h (cos^2 phi_h / alpha_x^2 + sin^2 phi_h / alpha_y^2))
+                  / (4 pi alpha_x alpha_y sqrt(cos_i cos_o))
+
+``kd`` is compiled only when given. Ward's normalisation is approximate: the model gains energy
+at grazing angles (docs/models.md).
+"""
+import numpy as np
+
+from ..spec import ModelSpec, Param
+
+PARAMS = (
+    Param("alpha_x", "slope deviation along the tangent x", 1e-3, 1.0, 0.2),
+    Param("alpha_y", "slope deviation along the bitangent y", 1e-3, 1.0, 0.2),
+    Param("ks", "specular reflectance", 0.0, 1.0, 1.0, spectral=True),
+    Param("kd", "diffuse albedo", 0.0, 1.0, 0.0, spectral=True),
+)
+
+
+def configure(opts: dict, given: set):
+    kd = "kd" in given
+    return (("WARD_DIFFUSE", str(int(kd))),), ("alpha_x", "alpha_y", "ks") + (("kd",) if kd else ()), {}
+
+
+SPECS = (ModelSpec(
+    name="ward",
+    ref="ward",
+    title="Ward 1992 anisotropic Gaussian (Walter 2005 sampler)",
+    reference="Ward 1992 eq 5b; Walter 2005, Notes on the Ward BRDF, eq 6-9",
+    header="ward.h",
+    prefix="ward",
+    params=PARAMS,
+    configure_fn=configure,
+    anisotropic_fn=lambda d, v: bool(np.any(np.asarray(v["alpha_x"]) != np.asarray(v["alpha_y"]))),
+),)

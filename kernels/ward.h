@@ -1,0 +1,115 @@
+/* Ward 1992 anisotropic Gaussian BRDF, sampled as in Walter 2005 ("Notes on the Ward BRDF").
+ *
+ * | parameter | meaning                                   | range               |
+ * |-----------|-------------------------------------------|---------------------|
+ * | alpha_x   | slope deviation along the tangent x        | [1e-3, 1]           |
+ * | alpha_y   | slope deviation along the bitangent y      | [1e-3, 1]           |
+ * | ks        | specular reflectance                       | [0, 1], per channel |
+ * | kd        | diffuse albedo (WARD_DIFFUSE: when given)  | [0, 1], per channel |
+ *
+ *   f(wo, wi) = kd / pi + ks exp(-(h_x^2 / alpha_x^2 + h_y^2 / alpha_y^2) / h_z^2)
+ *                         / (4 pi alpha_x alpha_y sqrt(cos_i cos_o))            (Ward eq 5b)
+ *
+ * with h = wi + wo (the exponent is invariant under scaling h). Sampling (Walter 2005 eq 6-7):
+ * the slopes (h_x, h_y) / h_z are Gaussian, (alpha_x r cos psi, alpha_y r sin psi) with
+ * r^2 = -log(1 - u1), psi = 2 pi u0; wi = reflect(wo, h). Density of h (solid angle)
+ * exp(-...) / (pi alpha_x alpha_y h_z^3), of wi that over 4 wo.h (Walter eq 9), so the weight
+ * f cos_i / pdf of a lobe sample is ks (wo.h) h_z^3 sqrt(cos_i / cos_o). With kd the cosine lobe
+ * is drawn with probability sum kd / (sum kd + sum ks) (sums over channels).
+ */
+#ifndef CLBRDF_WARD_H
+#define CLBRDF_WARD_H
+
+#define ward_SAMPLE_DIMS (WARD_DIFFUSE ? 3 : 2)   /* numbers ward_sample uses */
+
+/* The Gaussian's exponent for h = s / |s| (s any positive multiple of h). */
+inline realN ward_exponent(const Params *p, vec3 s)
+{
+    return (sqr(s.x / p->alpha_x) + sqr(s.y / p->alpha_y)) / sqr(s.z);
+}
+
+/* Density of the lobe sampler per unit solid angle of wi, from s = wi + wo. */
+inline realN ward_lobe_pdf(const Params *p, vec3 wo, vec3 s)
+{
+    realN inv = rsqrt(dot3(s, s));
+    vec3 h = scale3(s, inv);
+    return exp(-ward_exponent(p, s)) / (4 * PI_R * p->alpha_x * p->alpha_y * h.z * h.z * h.z
+                                        * dot3(wo, h));
+}
+
+inline realN ward_diffuse_prob(const Params *p)
+{
+#if WARD_DIFFUSE
+    realN kd = 0, ks = 0;
+    for (int c = 0; c < CHANNELS; ++c) {
+        kd += p->kd[c];
+        ks += p->ks[c];
+    }
+    return sel(kd / (kd + ks), (realN)0, kd + ks <= 0);
+#else
+    return (realN)0;
+#endif
+}
+
+inline spec ward_eval(const Params *p, vec3 wo, vec3 wi)
+{
+    vec3 s = add3(wi, wo);
+    realN lobe = exp(-ward_exponent(p, s))
+                 / (4 * PI_R * p->alpha_x * p->alpha_y * sqrt(wi.z * wo.z));
+    maskN ok = (wi.z > 0) & (wo.z > 0);
+    spec f;
+    for (int c = 0; c < CHANNELS; ++c) {
+        realN v = p->ks[c] * lobe;
+#if WARD_DIFFUSE
+        v += p->kd[c] * INV_PI_R;
+#endif
+        f.c[c] = sel((realN)0, v, ok);
+    }
+    return f;
+}
+
+inline realN ward_pdf(const Params *p, vec3 wo, vec3 wi)
+{
+    realN pdf = ward_lobe_pdf(p, wo, add3(wi, wo));
+#if WARD_DIFFUSE
+    realN pd = ward_diffuse_prob(p);
+    pdf = pd * wi.z * INV_PI_R + (1 - pd) * pdf;
+#endif
+    return sel((realN)0, pdf, (wi.z > 0) & (wo.z > 0));
+}
+
+inline BSample ward_sample(const Params *p, vec3 wo, rand4 u)
+{
+    realN c, sn = sincos_2pi(u.u0, &c);
+    realN r = sqrt(-log1p(-u.u1));
+    vec3 h = normalize3(v3(p->alpha_x * r * c, p->alpha_y * r * sn, (realN)1));
+    BSample s;
+    s.wi = reflect3(wo, h);
+    realN oh = dot3(wo, h);
+#if WARD_DIFFUSE
+    /* mixture: the weight from the drawn h for a lobe sample, f cos / pdf for a cosine one */
+    realN pd = ward_diffuse_prob(p);
+    maskN diffuse = u.u2 < pd;
+    vec3 wc = square_to_cosine_hemisphere(u.u0, u.u1);
+    s.wi = select3(s.wi, wc, diffuse);
+    vec3 sh = select3(h, add3(wc, wo), diffuse);
+    s.pdf = pd * s.wi.z * INV_PI_R + (1 - pd) * ward_lobe_pdf(p, wo, sh);
+    maskN ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
+    realN lobe = exp(-ward_exponent(p, sh)) * sqrt(s.wi.z / wo.z)
+                 / (4 * PI_R * p->alpha_x * p->alpha_y);
+    realN inv = 1 / s.pdf;
+    for (int ch = 0; ch < CHANNELS; ++ch)
+        s.weight.c[ch] = (p->ks[ch] * lobe + p->kd[ch] * INV_PI_R * s.wi.z) * inv;
+#else
+    maskN ok = (s.wi.z > 0) & (wo.z > 0) & (oh > 0);
+    s.pdf = ward_lobe_pdf(p, wo, h);
+    realN g = oh * h.z * h.z * h.z * sqrt(s.wi.z / wo.z);
+    for (int ch = 0; ch < CHANNELS; ++ch)
+        s.weight.c[ch] = p->ks[ch] * g;
+#endif
+    s.weight = spec_sel(spec_splat((realN)0), s.weight, ok);
+    s.pdf = sel((realN)0, s.pdf, ok);
+    return s;
+}
+
+#endif
