@@ -200,9 +200,7 @@ inline BSample ashikhmin_shirley_sample(const Params *p, vec3 wo, rand4 u)
     for (int c = 0; c < CHANNELS; ++c)
         s.weight.c[c] = as_fresnel(p, kh, c) * g;
 #endif
-    s.weight = spec_sel(spec_splat((realN)0), s.weight, ok);
-    s.pdf = sel((realN)0, s.pdf, ok);
-    return s;
+    return bsample_where(s, ok);
 }
 
 #endif

@@ -198,6 +198,14 @@ inline spec spec_sel(spec a, spec b, maskN m)
 /* A sampled direction: wi, the estimator weight f cos(theta_i) / pdf per channel, and pdf (1/sr). */
 typedef struct { vec3 wi; spec weight; realN pdf; } BSample;
 
+/* s where ok, else the zero sample (weight and pdf 0): the last step of every sampler. */
+inline BSample bsample_where(BSample s, maskN ok)
+{
+    s.weight = spec_sel(spec_splat((realN)0), s.weight, ok);
+    s.pdf = sel((realN)0, s.pdf, ok);
+    return s;
+}
+
 /* Inverse error function. Giles, "Approximating the erfinv function" (GPU Gems 4, 2010),
  * single-precision polynomials; in double precision refined by two Newton steps on erf. */
 inline realN erfinv_r(realN x)

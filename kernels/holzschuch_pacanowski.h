@@ -127,9 +127,7 @@ inline BSample holzschuch_pacanowski_sample(const Params *p, vec3 wo, rand4 u)
     s.pdf = hp_pdf_h(p, wo, s.wi, hh);
     maskN ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
     s.weight = spec_scale(hp_eval_h(p, wo, s.wi, hh), s.wi.z / s.pdf);
-    s.weight = spec_sel(spec_splat((realN)0), s.weight, ok);
-    s.pdf = sel((realN)0, s.pdf, ok);
-    return s;
+    return bsample_where(s, ok);
 }
 
 #endif

@@ -143,9 +143,7 @@ inline BSample low_microfacet_sample(const Params *p, vec3 wo, rand4 u)
     for (int c = 0; c < CHANNELS; ++c)
         s.weight.c[c] = p->a[c] * g;
 #endif
-    s.weight = spec_sel(spec_splat((realN)0), s.weight, ok);
-    s.pdf = sel((realN)0, s.pdf, ok);
-    return s;
+    return bsample_where(s, ok);
 }
 
 #endif

@@ -303,9 +303,7 @@ inline BSample schlick_sample(const Params *p, vec3 wo, rand4 u)
     s.pdf = sch_pdf_h(p, wo, s.wi, h);
     maskN ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
     s.weight = spec_scale(sch_eval_h(p, wo, s.wi, h), s.wi.z / s.pdf);
-    s.weight = spec_sel(spec_splat((realN)0), s.weight, ok);
-    s.pdf = sel((realN)0, s.pdf, ok);
-    return s;
+    return bsample_where(s, ok);
 }
 
 #endif

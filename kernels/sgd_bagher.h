@@ -140,9 +140,7 @@ inline BSample sgd_bagher_sample(const Params *P, vec3 wo, rand4 u)
     s.pdf = sgdb_pdf(P, wo, s.wi, inv_kap);
     maskN ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
     s.weight = spec_scale(sgd_bagher_eval(P, wo, s.wi), s.wi.z / s.pdf);
-    s.weight = spec_sel(spec_splat((realN)0), s.weight, ok);
-    s.pdf = sel((realN)0, s.pdf, ok);
-    return s;
+    return bsample_where(s, ok);
 }
 
 #endif

@@ -107,9 +107,7 @@ inline BSample ward_sample(const Params *p, vec3 wo, rand4 u)
     for (int ch = 0; ch < CHANNELS; ++ch)
         s.weight.c[ch] = p->ks[ch] * g;
 #endif
-    s.weight = spec_sel(spec_splat((realN)0), s.weight, ok);
-    s.pdf = sel((realN)0, s.pdf, ok);
-    return s;
+    return bsample_where(s, ok);
 }
 
 #endif

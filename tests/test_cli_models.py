@@ -21,7 +21,9 @@ CASES = [(name, None) for name in clbrdf.MODELS] + \
         [(name, presets.materials(name)[0]) for name in sorted(presets.sources())]
 
 
-@pytest.mark.parametrize("name,preset", CASES, ids=[f"{n}-{p or 'defaults'}" for n, p in CASES])
+@pytest.mark.parametrize("name,preset", [c if c[1] is None else pytest.param(*c, marks=pytest.mark.slow)
+                                         for c in CASES],
+                         ids=[f"{n}-{p or 'defaults'}" for n, p in CASES])
 def test_albedo_and_table_for_every_model(name, preset, tmp_path):
     extra = ["--preset", preset] if preset else []
     r = run_cli("albedo", name, *extra, "--mu", "0.05,0.5,1", "--samples", "8192", "--json")
