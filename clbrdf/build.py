@@ -2,7 +2,9 @@
 
 The sources are the OpenCL C files in ``kernels/`` (shipped inside the package as
 ``clbrdf.kernels``). ``#include "x.h"`` lines are expanded here, once each, so that the source
-handed to the compiler is self-contained and its text is the cache key.
+handed to the compiler is self-contained and its text is the cache key. Generated tables
+(kernels/data/*.npy) are data, not source: a program gets them in one device buffer, created
+once per device, with the offsets as ``#define TABLE_name``.
 """
 from __future__ import annotations
 
@@ -50,14 +52,47 @@ def expand(name: str, seen: set | None = None) -> str:
 
 
 PARTS = ("batch", "random", "albedo")
+_TABLE = re.compile(r"\bTABLE_([a-z][a-z0-9_]*)\b")
 
 
+@lru_cache(maxsize=None)
+def table_data(name: str):
+    """Generated table ``name``: float32 values of kernels/data/NAME.npy (read once)."""
+    import numpy as np
+    a = np.load(kernel_dir() / "data" / f"{name}.npy")
+    if a.dtype != np.float32 or a.ndim != 1:
+        raise RuntimeError(f"kernels/data/{name}.npy: expected 1-D float32, got {a.dtype} {a.shape}")
+    return a
+
+
+def with_tables(source: str) -> tuple[str, tuple[str, ...]]:
+    """The source with ``#define TABLE_name offset`` for every table it names (in order of first
+    use), and those names: the program's tables buffer is their concatenation (``tables``)."""
+    code = re.sub(r"/\*.*?\*/|//[^\n]*", "", source, flags=re.S)     # names in comments do not count
+    names = tuple(dict.fromkeys(_TABLE.findall(code)))
+    lines, off = [], 0
+    for n in names:
+        lines.append(f"#define TABLE_{n} {off}")
+        off += table_data(n).size
+    return "\n".join(lines + [source]), names
+
+
+def tables(names: tuple[str, ...]):
+    """The float32 contents of a program's tables buffer (one 0 when it uses none)."""
+    import numpy as np
+    if not names:
+        return np.zeros(1, np.float32)
+    return np.concatenate([table_data(n) for n in names])
+
+
+@lru_cache(maxsize=1024)
 def program_source(cfg: Config, precision: str, width: int, *, part: str = "batch",
-                   estimator: str = "brdf", rng: str = "philox") -> str:
+                   estimator: str = "brdf", rng: str = "philox") -> tuple[str, tuple[str, ...]]:
     """The self-contained source of one program. ``part`` picks its kernels, so that a program
     holds only the code its caller runs: ``batch`` (eval_batch, pdf_batch, sample_batch),
     ``albedo`` (albedo_blocks for one estimator and generator) or ``random`` (random_batch for one
-    generator; it contains no model, so one program serves every model)."""
+    generator; it contains no model, so one program serves every model). Returns the source and
+    the names of the tables it reads (``with_tables``); assembled once per configuration."""
     if part not in PARTS:
         raise ValueError(f"part={part!r}: choose one of {', '.join(PARTS)}")
     lines = [f"#define CLBRDF_DOUBLE {int(precision == 'double')}", f"#define W {width}",
@@ -67,7 +102,7 @@ def program_source(cfg: Config, precision: str, width: int, *, part: str = "batc
     if part == "random":
         lines += [f"#define RNG rand_{rng}"]
         body.append(expand("integrators.cl", seen))
-        return "\n".join(lines) + "\n" + "\n".join(body)
+        return with_tables("\n".join(lines) + "\n" + "\n".join(body))
     lines += [f"#define MODEL {cfg.prefix}", f"#define CHANNELS {cfg.channels}"]
     if part == "albedo":
         lines += [f"#define ESTIMATOR ESTIMATOR_{estimator.upper()}",
@@ -81,11 +116,18 @@ def program_source(cfg: Config, precision: str, width: int, *, part: str = "batc
         fields.append(f"    realN {n}{'[CHANNELS]' if spectral else ''};")
         row += cfg.rows(n)
     lines.append(f"#define PARAMS(X, XS) {' '.join(items)}")
+    fields.append("    Tables tables;")
     body.append("typedef struct {\n" + "\n".join(fields) + "\n} Params;\n")
     body += [expand(h, seen) for h in cfg.headers]
     body.append(expand(cfg.header, seen))
     body.append(expand("integrators.cl", seen))
-    return "\n".join(lines) + "\n" + "\n".join(body)
+    return with_tables("\n".join(lines) + "\n" + "\n".join(body))
+
+
+class Built:
+    """A built program and its tables buffer (the second argument of every model kernel)."""
+    def __init__(self, program, tables):
+        self.program, self.tables = program, tables
 
 
 @lru_cache(maxsize=256)
@@ -100,8 +142,22 @@ def _build(device: Device, source: str):
         raise RuntimeError(f"kernel build failed on {device.info.name}:\n" + "\n".join(lines)) from e
 
 
-def get_program(device: Device, cfg: Config, precision: str, width: int, **kw):
+@lru_cache(maxsize=64)
+def tables_buffer(device: Device, names: tuple[str, ...]):
+    """The tables buffer of ``names`` on ``device``, created once per device."""
+    import pyopencl as cl
+    return cl.Buffer(device.context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
+                     hostbuf=tables(names))
+
+
+@lru_cache(maxsize=256)
+def _built(device: Device, source: str, names: tuple[str, ...]) -> Built:
+    return Built(_build(device, source), tables_buffer(device, names))
+
+
+def get_program(device: Device, cfg: Config, precision: str, width: int, **kw) -> Built:
     if precision == "double" and not device.info.has_fp64:
         raise DeviceError(f"precision='double' needs cl_khr_fp64, which {device.info.name} lacks; "
                           "use precision='single' or another device")
-    return _build(device, program_source(cfg, precision, width, **kw))
+    source, names = program_source(cfg, precision, width, **kw)
+    return _built(device, source, names)

@@ -132,7 +132,8 @@ class Model:
         host_out = [np.empty((k, n_pad), dtype=self.dtype) for k in outputs]
         out_bufs = [cl.Buffer(ctx, mf.WRITE_ONLY, h.nbytes) for h in host_out]
         prog = self.program(part="batch")
-        runtime.kernel(prog, kernel)(q, *runtime.ndrange(n_pad // w, self.device), *bufs, np.uint64(n_pad), *out_bufs)
+        runtime.kernel(prog.program, kernel)(q, *runtime.ndrange(n_pad // w, self.device), bufs[0], prog.tables,
+                                             *bufs[1:], np.uint64(n_pad), *out_bufs)
         for h, b in zip(host_out, out_bufs):
             cl.enqueue_copy(q, h, b)
         q.finish()
@@ -196,7 +197,7 @@ class Model:
         prog = self.program(part="random", rng="sobol" if qmc else "philox")
         buf = cl.Buffer(self.device.context, cl.mem_flags.WRITE_ONLY, 4 * n_pad * np.dtype(self.dtype).itemsize)
         lo, hi = runtime.seed_words(seed)
-        runtime.kernel(prog, "random_batch")(self.device.queue, *runtime.ndrange(n_pad // w, self.device), np.uint64(n_pad), np.uint32(point),
+        runtime.kernel(prog.program, "random_batch")(self.device.queue, *runtime.ndrange(n_pad // w, self.device), np.uint64(n_pad), np.uint32(point),
                           np.uint32(stream), lo, hi, buf)
         out = np.empty((4, n_pad), dtype=self.dtype)
         cl.enqueue_copy(self.device.queue, out, buf)

@@ -162,7 +162,7 @@ def run_albedo(m, shape, wo_rows, *, estimator: str, samples: int, seed: int, qm
     npts = math.prod(shape)
     nch = m.channels
     prog = m.program(part="albedo", estimator=estimator, rng="sobol" if qmc else "philox")
-    kern = kernel(prog, "albedo_blocks")
+    kern = kernel(prog.program, "albedo_blocks")
     lo, hi = seed_words(seed)
     ctx, q = m.device.context, m.device.queue
     mf = cl.mem_flags
@@ -192,7 +192,7 @@ def run_albedo(m, shape, wo_rows, *, estimator: str, samples: int, seed: int, qm
         out = np.empty(k * nb * nch * 3, dtype=m.dtype)
         bo = cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes)
         tl = time.perf_counter()
-        kern(q, *ndrange_with(k * nb, local), bp, bw, np.uint64(k), np.uint64(point),
+        kern(q, *ndrange_with(k * nb, local), bp, prog.tables, bw, np.uint64(k), np.uint64(point),
              np.uint32(block), np.uint32(nb), np.uint32(plan.per_stream), lo, hi,
              np.uint32(plan.bps), np.uint32(plan.block_len), bo)
         cl.enqueue_copy(q, out, bo)

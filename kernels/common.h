@@ -101,6 +101,38 @@ typedef CAT(ulong, W) ulongN;
 
 typedef struct { realN x, y, z; } vec3;
 
+/* Generated tables (kernels/data/NAME.npy, float32) in one buffer per program, passed to every model
+ * kernel after the parameters; table NAME starts at offset TABLE_NAME (defined by
+ * clbrdf/build.py for the tables a program's source names). */
+typedef const global float *Tables;
+
+/* T[i] per lane (OpenCL has no vector gather: one load per lane). */
+inline realN table_gather(Tables T, uintN i)
+{
+#if W == 1
+    return (realN)T[i];
+#elif W == 2
+    return (realN)((real_t)T[i.s0], (real_t)T[i.s1]);
+#elif W == 4
+    return (realN)((real_t)T[i.s0], (real_t)T[i.s1], (real_t)T[i.s2], (real_t)T[i.s3]);
+#elif W == 8
+    return (realN)((real_t)T[i.s0], (real_t)T[i.s1], (real_t)T[i.s2], (real_t)T[i.s3],
+                   (real_t)T[i.s4], (real_t)T[i.s5], (real_t)T[i.s6], (real_t)T[i.s7]);
+#elif W == 16
+    return (realN)((real_t)T[i.s0], (real_t)T[i.s1], (real_t)T[i.s2], (real_t)T[i.s3],
+                   (real_t)T[i.s4], (real_t)T[i.s5], (real_t)T[i.s6], (real_t)T[i.s7],
+                   (real_t)T[i.s8], (real_t)T[i.s9], (real_t)T[i.sa], (real_t)T[i.sb],
+                   (real_t)T[i.sc], (real_t)T[i.sd], (real_t)T[i.se], (real_t)T[i.sf]);
+#endif
+}
+
+/* Catmull-Rom between p1 (t = 0) and p2 (t = 1). */
+inline realN catmull_rom(realN p0, realN p1, realN p2, realN p3, realN t)
+{
+    return p1 + (realN)0.5 * t * (p2 - p0 + t * (2 * p0 - 5 * p1 + 4 * p2 - p3
+                                                 + t * (3 * (p1 - p2) + p3 - p0)));
+}
+
 inline vec3 v3(realN x, realN y, realN z) { vec3 r = {x, y, z}; return r; }
 inline vec3 add3(vec3 a, vec3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
 inline vec3 sub3(vec3 a, vec3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }

@@ -11,9 +11,10 @@
  *
  * Smith Lambda (eq 20-21) depends on nu = sigma tan theta and p only. With
  * nu~ = nu Gamma(3/(2p)) / Gamma(1/p) (nu times the mean slope of the unit distribution) it is
- * read from the table kernels/exppow_g1_table.h (log(1 + Lambda) on a grid in log p and
- * log nu~, Catmull-Rom in both (16 reads); generated and checked against direct quadrature by
- * scripts/exppow_g1_table.py); Lambda = 0 below the table, nu~/pi - 1/2 above it.
+ * read from a table of log(1 + Lambda) on a grid in log p and log nu~ (layout
+ * kernels/exppow_g1_table.h, values kernels/data/exppow_g1.npy in the tables buffer),
+ * Catmull-Rom in both (16 reads); generated and checked against direct quadrature by
+ * scripts/exppow_g1_table.py; Lambda = 0 below the table, nu~/pi - 1/2 above it.
  *
  * Sampling (eq 22-23): y = (tan^2 theta_h / sigma^2)^p is Gamma(1/p, 1): y = Q^-1(1/p, u0),
  * tan theta_h = sigma y^(1/(2p)), phi_h = 2 pi u1; density D(h) cos theta_h.
@@ -28,24 +29,9 @@
 #if W == 1
 typedef int exppow_int;
 #define EXPPOW_TO_INT convert_int
-#define EXPPOW_GATHER(i) ((realN)EXPPOW_LOG1P_LAMBDA[i])
 #else
 typedef CAT(int, W) exppow_int;
 #define EXPPOW_TO_INT CAT(convert_int, W)
-#define EXPPOW_G_(i, s) EXPPOW_LOG1P_LAMBDA[(i).s]
-#if W == 2
-#define EXPPOW_GATHER(i) ((realN)(EXPPOW_G_(i, s0), EXPPOW_G_(i, s1)))
-#elif W == 4
-#define EXPPOW_GATHER(i) ((realN)(EXPPOW_G_(i, s0), EXPPOW_G_(i, s1), EXPPOW_G_(i, s2), EXPPOW_G_(i, s3)))
-#elif W == 8
-#define EXPPOW_GATHER(i) ((realN)(EXPPOW_G_(i, s0), EXPPOW_G_(i, s1), EXPPOW_G_(i, s2), EXPPOW_G_(i, s3), \
-    EXPPOW_G_(i, s4), EXPPOW_G_(i, s5), EXPPOW_G_(i, s6), EXPPOW_G_(i, s7)))
-#elif W == 16
-#define EXPPOW_GATHER(i) ((realN)(EXPPOW_G_(i, s0), EXPPOW_G_(i, s1), EXPPOW_G_(i, s2), EXPPOW_G_(i, s3), \
-    EXPPOW_G_(i, s4), EXPPOW_G_(i, s5), EXPPOW_G_(i, s6), EXPPOW_G_(i, s7), \
-    EXPPOW_G_(i, s8), EXPPOW_G_(i, s9), EXPPOW_G_(i, sa), EXPPOW_G_(i, sb), \
-    EXPPOW_G_(i, sc), EXPPOW_G_(i, sd), EXPPOW_G_(i, se), EXPPOW_G_(i, sf)))
-#endif
 #endif
 
 /* D(h) (eq 26), in logs so that the exp(-...) -> 0, cos^-4 -> inf limit never forms 0 * inf. */
@@ -61,15 +47,15 @@ inline realN exppow_D(Microfacet m, vec3 h)
 }
 
 /* One table row at base..base+3, Catmull-Rom in nu~ with parameter t. */
-inline realN exppow_row(exppow_int base, realN t)
+inline realN exppow_row(Tables T, exppow_int base, realN t)
 {
-    realN f0 = EXPPOW_GATHER(base), f1 = EXPPOW_GATHER(base + 1);
-    realN f2 = EXPPOW_GATHER(base + 2), f3 = EXPPOW_GATHER(base + 3);
-    return f1 + (realN)0.5 * t * (f2 - f0 + t * (2 * f0 - 5 * f1 + 4 * f2 - f3 + t * (3 * (f1 - f2) + f3 - f0)));
+    uintN b = convert_uintN(base);
+    return catmull_rom(table_gather(T, b), table_gather(T, b + 1), table_gather(T, b + 2),
+                       table_gather(T, b + 3), t);
 }
 
 /* log(1 + Lambda) at log nu~ = lv (table lookup, see the header comment). */
-inline realN exppow_log1p_lambda(realN p, realN lv)
+inline realN exppow_log1p_lambda(Tables T, realN p, realN lv)
 {
     realN tp = clamp((log(p) - (realN)EXPPOW_TABLE_P0) / (realN)EXPPOW_TABLE_HP,
                      (realN)0, (realN)(EXPPOW_TABLE_NP - 1));
@@ -84,11 +70,10 @@ inline realN exppow_log1p_lambda(realN p, realN lv)
                      * (EXPPOW_TABLE_NV + 2)
                      + clamp(EXPPOW_TO_INT(fv), (exppow_int)0, (exppow_int)(EXPPOW_TABLE_NV - 2));
     tv -= fv;
-    realN r0 = exppow_row(row, tv), r1 = exppow_row(row + (EXPPOW_TABLE_NV + 2), tv);
-    realN r2 = exppow_row(row + 2 * (EXPPOW_TABLE_NV + 2), tv);
-    realN r3 = exppow_row(row + 3 * (EXPPOW_TABLE_NV + 2), tv);
-    realN t = tp - fp;
-    realN v = r1 + (realN)0.5 * t * (r2 - r0 + t * (2 * r0 - 5 * r1 + 4 * r2 - r3 + t * (3 * (r1 - r2) + r3 - r0)));
+    realN r0 = exppow_row(T, row, tv), r1 = exppow_row(T, row + (EXPPOW_TABLE_NV + 2), tv);
+    realN r2 = exppow_row(T, row + 2 * (EXPPOW_TABLE_NV + 2), tv);
+    realN r3 = exppow_row(T, row + 3 * (EXPPOW_TABLE_NV + 2), tv);
+    realN v = catmull_rom(r0, r1, r2, r3, tp - fp);
     realN above = lv - (realN)1.1447298858494002 + log1p((realN)1.5707963267948966 * exp(-lv));  /* log(nu~/pi + 1/2) */
     v = sel(v, above, lv > (realN)(EXPPOW_TABLE_V0 + (EXPPOW_TABLE_NV - 1) * EXPPOW_TABLE_HV));
     return sel(v, (realN)0, lv < (realN)EXPPOW_TABLE_V0);
@@ -102,7 +87,7 @@ inline realN exppow_Lambda(Microfacet m, vec3 w)
     /* log nu~ = log(sigma tan theta) + log Gamma(3/(2p)) - log Gamma(1/p); -inf at the normal */
     realN lv = log(m.ax) + (realN)0.5 * log(r2) - log(fabs(w.z)) + lgamma((realN)1.5 / p) - lgamma(1 / p);
     lv = fmax(lv, (realN)(EXPPOW_TABLE_V0 - 1));
-    return expm1(exppow_log1p_lambda(p, lv));
+    return expm1(exppow_log1p_lambda(m.tables + TABLE_exppow_g1, p, lv));
 }
 
 /* Normals with density D(h) cos theta_h (eq 22-23): y = Q^-1(1/p, u0) is Gamma(1/p, 1). */

@@ -65,7 +65,7 @@ inline realN gtr_Lambda(Microfacet m, vec3 w)
     realN xs = (gamma - (realN)GTR_LT_SREF) * (realN)GTR_LT_IDS + (realN)GTR_LT_SIDX;
     realN xa = (log2(a) + (realN)GTR_LT_KA * a - (realN)GTR_LT_LA0) / (realN)GTR_LT_DLA;
     realN xt = (log2(a * sqrt(s2) / z) - (realN)GTR_LT_LT0) / (realN)GTR_LT_DLT;
-    realN R = lambda_table_R(gtr_lambda_table, GTR_LT_NS, GTR_LT_NA, GTR_LT_NT, xs, xa, xt);
+    realN R = lambda_table_R(m.tables + TABLE_gtr_lambda, GTR_LT_NS, GTR_LT_NA, GTR_LT_NT, xs, xa, xt);
     realN wgt = gamma - 1;
     realN lam = l1 * exp(wgt * log(lg / l1) + R);
     lam = sel(lam, l1, gamma == 1);                  /* the closed form, exactly */

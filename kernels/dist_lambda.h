@@ -3,40 +3,14 @@
  *
  * A table holds R(shape, u_a, u_t) on uniform nodes (u_a = log2 a + KA a, u_t = log2(scale tan
  * theta)); lambda_table_R interpolates it by Catmull-Rom in all three coordinates, clamped to the
- * grid. Every lane gathers its own 64 nodes (OpenCL has no vector gather: one load per lane). */
+ * grid. Every lane gathers its own 64 nodes (table_gather). The values are in the tables buffer. */
 #ifndef CLBRDF_DIST_LAMBDA_H
 #define CLBRDF_DIST_LAMBDA_H
 
 #include "dist_lambda_tables.h"
 
-inline realN lt_gather(__constant const float *T, uintN i)
-{
-#if W == 1
-    return (realN)T[i];
-#elif W == 2
-    return (realN)((real_t)T[i.s0], (real_t)T[i.s1]);
-#elif W == 4
-    return (realN)((real_t)T[i.s0], (real_t)T[i.s1], (real_t)T[i.s2], (real_t)T[i.s3]);
-#elif W == 8
-    return (realN)((real_t)T[i.s0], (real_t)T[i.s1], (real_t)T[i.s2], (real_t)T[i.s3],
-                   (real_t)T[i.s4], (real_t)T[i.s5], (real_t)T[i.s6], (real_t)T[i.s7]);
-#elif W == 16
-    return (realN)((real_t)T[i.s0], (real_t)T[i.s1], (real_t)T[i.s2], (real_t)T[i.s3],
-                   (real_t)T[i.s4], (real_t)T[i.s5], (real_t)T[i.s6], (real_t)T[i.s7],
-                   (real_t)T[i.s8], (real_t)T[i.s9], (real_t)T[i.sa], (real_t)T[i.sb],
-                   (real_t)T[i.sc], (real_t)T[i.sd], (real_t)T[i.se], (real_t)T[i.sf]);
-#endif
-}
-
-/* Catmull-Rom between p1 (f = 0) and p2 (f = 1). */
-inline realN lt_cr(realN p0, realN p1, realN p2, realN p3, realN f)
-{
-    return p1 + (realN)0.5 * f * (p2 - p0 + f * (2 * p0 - 5 * p1 + 4 * p2 - p3
-                                                 + f * (3 * (p1 - p2) + p3 - p0)));
-}
-
 /* R at continuous node coordinates (xs, xa, xt) (any real: clamped here). */
-inline realN lambda_table_R(__constant const float *T, int ns, int na, int nt,
+inline realN lambda_table_R(Tables T, int ns, int na, int nt,
                             realN xs, realN xa, realN xt)
 {
     xs = clamp(xs, (realN)0, (realN)(ns - 1));
@@ -56,13 +30,13 @@ inline realN lambda_table_R(__constant const float *T, int ns, int na, int nt,
             realN v[4];
             for (int dk = 0; dk < 4; ++dk) {
                 realN kk = clamp(k + (realN)(dk - 1), (realN)0, (realN)(nt - 1));
-                v[dk] = lt_gather(T, convert_uintN(base + kk));
+                v[dk] = table_gather(T, convert_uintN(base + kk));
             }
-            col[dj] = lt_cr(v[0], v[1], v[2], v[3], ft);
+            col[dj] = catmull_rom(v[0], v[1], v[2], v[3], ft);
         }
-        plane[di] = lt_cr(col[0], col[1], col[2], col[3], fa);
+        plane[di] = catmull_rom(col[0], col[1], col[2], col[3], fa);
     }
-    return lt_cr(plane[0], plane[1], plane[2], plane[3], fs);
+    return catmull_rom(plane[0], plane[1], plane[2], plane[3], fs);
 }
 
 #endif

@@ -118,7 +118,7 @@ inline realN sgd_Lambda(Microfacet m, vec3 w)
     realN xs = (p - (realN)SGD_LT_SREF) * (realN)SGD_LT_IDS + (realN)SGD_LT_SIDX;
     realN xa = (log2(a) + (realN)SGD_LT_KA * a - (realN)SGD_LT_LA0) / (realN)SGD_LT_DLA;
     realN xt = (log2(sqrt(m2) * sn / z) - (realN)SGD_LT_LT0) / (realN)SGD_LT_DLT;
-    realN R = lambda_table_R(sgd_lambda_table, SGD_LT_NS, SGD_LT_NA, SGD_LT_NT, xs, xa, xt);
+    realN R = lambda_table_R(m.tables + TABLE_sgd_lambda, SGD_LT_NS, SGD_LT_NA, SGD_LT_NT, xs, xa, xt);
     /* Beckmann (microfacet_distributions.h), mu = 1 / (sqrt(a) tan theta) */
     realN mu = z / (sqrt(a) * sn);
     realN lb = (realN)0.5 * (exp(-mu * mu) * INV_SQRT_PI_R / mu - erfc(mu));

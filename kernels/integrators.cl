@@ -14,6 +14,8 @@
  * and includes the model header after common.h, rng.h, warp.h (see clbrdf/build.py).
  * A program holds one part only, so it compiles no code its caller does not run.
  *
+ * Every model kernel takes the parameters P and then TABLES, the program's generated tables
+ * (clbrdf/build.py; one float when it has none).
  * Parameter arrays are structure-of-arrays: row j of query i at P[j * stride + i]; outputs with
  * channels likewise (channel c of query i at out[c * stride + i]).
  */
@@ -59,9 +61,10 @@ __kernel void random_batch(const ulong n, const uint point, const uint stream, c
 #endif
 
 /* W consecutive queries starting at i (batch kernels). */
-inline Params load_params(const global real_t *P, ulong stride, ulong i)
+inline Params load_params(const global real_t *P, Tables TABLES, ulong stride, ulong i)
 {
     Params p;
+    p.tables = TABLES;
 #define LOAD_ONE(name, j) p.name = VLOAD(P + (j) * stride + i);
 #define LOAD_SPEC(name, j) for (int c = 0; c < CHANNELS; ++c) p.name[c] = VLOAD(P + ((j) + c) * stride + i);
     PARAMS(LOAD_ONE, LOAD_SPEC)
@@ -71,9 +74,10 @@ inline Params load_params(const global real_t *P, ulong stride, ulong i)
 }
 
 /* One query broadcast to all lanes (albedo kernel: lanes are samples of one point). */
-inline Params splat_params(const global real_t *P, ulong stride, ulong i)
+inline Params splat_params(const global real_t *P, Tables TABLES, ulong stride, ulong i)
 {
     Params p;
+    p.tables = TABLES;
 #define SPLAT_ONE(name, j) p.name = (realN)P[(j) * stride + i];
 #define SPLAT_SPEC(name, j) for (int c = 0; c < CHANNELS; ++c) p.name[c] = (realN)P[((j) + c) * stride + i];
     PARAMS(SPLAT_ONE, SPLAT_SPEC)
@@ -104,31 +108,31 @@ inline void store_dir(vec3 v, global real_t *D, ulong stride, ulong i)
 
 /* ---- batch kernels: work-item g handles queries [g W, g W + W); n is padded to a multiple of W ---- */
 
-__kernel void eval_batch(const global real_t *P, const global real_t *WO, const global real_t *WI,
+__kernel void eval_batch(const global real_t *P, Tables TABLES, const global real_t *WO, const global real_t *WI,
                          const ulong n, global real_t *out)
 {
     ulong i = get_global_id(0) * W;
     if (i >= n) return;
-    Params p = load_params(P, n, i);
+    Params p = load_params(P, TABLES, n, i);
     store_spec(BRDF(eval)(&p, load_dir(WO, n, i), load_dir(WI, n, i)), out, n, i);
 }
 
-__kernel void pdf_batch(const global real_t *P, const global real_t *WO, const global real_t *WI,
+__kernel void pdf_batch(const global real_t *P, Tables TABLES, const global real_t *WO, const global real_t *WI,
                         const ulong n, global real_t *out)
 {
     ulong i = get_global_id(0) * W;
     if (i >= n) return;
-    Params p = load_params(P, n, i);
+    Params p = load_params(P, TABLES, n, i);
     VSTORE(BRDF(pdf)(&p, load_dir(WO, n, i), load_dir(WI, n, i)), out + i);
 }
 
 /* U: uniform numbers, 4 per query (structure-of-arrays), so that callers control the stream. */
-__kernel void sample_batch(const global real_t *P, const global real_t *WO, const global real_t *U,
+__kernel void sample_batch(const global real_t *P, Tables TABLES, const global real_t *WO, const global real_t *U,
                            const ulong n, global real_t *WI, global real_t *weight, global real_t *pdf)
 {
     ulong i = get_global_id(0) * W;
     if (i >= n) return;
-    Params p = load_params(P, n, i);
+    Params p = load_params(P, TABLES, n, i);
     rand4 u = {VLOAD(U + i), VLOAD(U + n + i), VLOAD(U + 2 * n + i), VLOAD(U + 3 * n + i)};
     BSample s = BRDF(sample)(&p, load_dir(WO, n, i), u);
     store_dir(s.wi, WI, n, i);
@@ -177,7 +181,7 @@ inline spec albedo_estimate(const Params *p, vec3 wo, rand4 u)
  * shifted sums D = sum (e - K) and Q = sum (e - K)^2 at out[3 (CHANNELS g + c) + 0, 1, 2] = K, D, Q:
  * shifted sums keep the variance exact in single precision where sum e^2 - (sum e)^2 / n cancels.
  * The host combines blocks in double, in a fixed order (clbrdf/runtime.py). */
-__kernel void albedo_blocks(const global real_t *P, const global real_t *WO, const ulong npoints,
+__kernel void albedo_blocks(const global real_t *P, Tables TABLES, const global real_t *WO, const ulong npoints,
                             const ulong point0, const uint block0, const uint launch_blocks,
                             const uint samples, const uint seed_lo, const uint seed_hi,
                             const uint blocks_per_stream, const uint block_len, global real_t *out)
@@ -187,7 +191,7 @@ __kernel void albedo_blocks(const global real_t *P, const global real_t *WO, con
     uint block = block0 + (uint)(g % launch_blocks);
     if (local_point >= npoints) return;
     uint point = (uint)(point0 + local_point);
-    Params p = splat_params(P, npoints, local_point);
+    Params p = splat_params(P, TABLES, npoints, local_point);
     vec3 wo = v3((realN)WO[local_point], (realN)WO[npoints + local_point], (realN)WO[2 * npoints + local_point]);
     uint stream = block / blocks_per_stream;
     uint first = (block % blocks_per_stream) * block_len;

@@ -12,7 +12,7 @@
 
 /* ax, ay: roughness along x and y; shape: a second parameter of the NDFs that have one
  * (GTR gamma, SGD p, exponential-power p). */
-typedef struct { realN ax, ay, shape; } Microfacet;
+typedef struct { realN ax, ay, shape; Tables tables; } Microfacet;
 
 /* Squared roughness along the azimuth of w, times tan^2 theta_w: (wx^2 ax^2 + wy^2 ay^2) / wz^2. */
 inline realN projected_roughness2(Microfacet m, vec3 w)

@@ -1,4 +1,5 @@
-"""Generate kernels/dist_lambda_tables.h: Smith Lambda of the GTR and SGD distributions.
+"""Generate kernels/dist_lambda_tables.h (layout) and kernels/data/{gtr,sgd}_lambda.npy (values):
+Smith Lambda of the GTR and SGD distributions.
 
 Neither has a closed-form Lambda (GTR has one only for gamma = 1 and gamma = 2), so the kernel
 interpolates a table of the logarithm of Lambda relative to a closed-form reference that has the
@@ -220,19 +221,6 @@ def measure(dist, S, LA, LT, T, n=1500, seed=1):
     return worst_g, worst_rel, where, sh.size
 
 
-def _c_float(v):
-    s = f"{float(v):.8g}"
-    return s + (".0f" if s.lstrip("-").isdigit() else "f")
-
-
-def c_array(name, T):
-    vals = T.reshape(-1)
-    lines = []
-    for i in range(0, vals.size, 8):
-        lines.append("    " + ", ".join(_c_float(v) for v in vals[i:i + 8]) + ",")
-    return f"__constant float {name}[{vals.size}] = {{\n" + "\n".join(lines) + "\n};\n"
-
-
 def main():
     import warnings
     from scipy.integrate import IntegrationWarning
@@ -267,11 +255,14 @@ def main():
                     f"#define {up}_LT_LA0 {LA[0]:.9g}\n#define {up}_LT_DLA {g['la'][2]:.9g}\n"
                     f"#define {up}_LT_KA {g['ka']:.9g}\n"
                     f"#define {up}_LT_LT0 {LT[0]:.9g}\n#define {up}_LT_DLT {g['lt'][2]:.9g}\n")
-        body.append(c_array(f"{dist}_lambda_table", T.astype(np.float32)))
+        np.save(ROOT / "kernels" / "data" / f"{dist}_lambda.npy", T.astype(np.float32).reshape(-1))
+    out += [" * Values (float32, row-major (shape, a, t)): kernels/data/gtr_lambda.npy and sgd_lambda.npy,",
+            " * passed to the kernels in the tables buffer (clbrdf/build.py) at TABLE_gtr_lambda and",
+            " * TABLE_sgd_lambda."]
     out.append(" */\n#ifndef CLBRDF_DIST_LAMBDA_TABLES_H\n#define CLBRDF_DIST_LAMBDA_TABLES_H\n")
     text = "\n".join(out) + "\n" + "\n".join(body) + "\n#endif\n"
     (ROOT / "kernels" / "dist_lambda_tables.h").write_text(text)
-    print("wrote kernels/dist_lambda_tables.h")
+    print("wrote kernels/dist_lambda_tables.h, kernels/data/gtr_lambda.npy, kernels/data/sgd_lambda.npy")
 
 
 if __name__ == "__main__":

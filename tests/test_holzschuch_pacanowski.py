@@ -94,12 +94,12 @@ def test_reference_lambda_spline():
 # Kernel pieces through a test program: Lambda (table) and D
 
 SRC = """
-__kernel void lam(const global real_t *Sg, const global real_t *Pp, const global real_t *T,
-                  global real_t *out, global real_t *d)
+__kernel void lam(Tables TABLES, const global real_t *Sg, const global real_t *Pp,
+                  const global real_t *T, global real_t *out, global real_t *d)
 {
     size_t i = get_global_id(0) * W;
     realN s = VLOAD(Sg + i), p = VLOAD(Pp + i), t = VLOAD(T + i);
-    Microfacet m = {s, s, p};
+    Microfacet m = {s, s, p, TABLES};
     realN c = 1 / sqrt(1 + t * t);
     vec3 w = v3(t * c, (realN)0, c);
     VSTORE(exppow_Lambda(m, w), out + i);
@@ -112,13 +112,14 @@ def run_lambda(sigma, p, tan, precision, width):
     import pyopencl as cl
     dev = clbrdf.get_device()
     dt = np.float64 if precision == "double" else np.float32
-    src = "\n".join([f"#define CLBRDF_DOUBLE {int(precision == 'double')}", f"#define W {width}",
-                     build.expand("common.h"), build.expand("dist_exppow.h"), SRC])
+    src, tables = build.with_tables("\n".join([
+        f"#define CLBRDF_DOUBLE {int(precision == 'double')}", f"#define W {width}",
+        build.expand("common.h"), build.expand("dist_exppow.h"), SRC]))
     prog = cl.Program(dev.context, src).build(options=["-cl-std=CL1.2"])
     n = tan.size
     npad = -(-n // width) * width
     mf = cl.mem_flags
-    bufs = []
+    bufs = [build.tables_buffer(dev, tables)]
     for v in (sigma, p, tan):
         h = np.empty(npad, dt)
         h[:n] = v

@@ -132,3 +132,24 @@ def test_selector_of_a_broken_device_says_so():
     with pytest.raises(clbrdf.DeviceError, match=rf"device='{d.selector}' matches only devices "
                                                  rf"whose OpenCL compiler fails: {d.selector} "):
         clbrdf.get_device(d.selector)
+
+
+def test_tables_are_data_and_sources_are_assembled_once():
+    """Generated tables reach the kernels as one device buffer per device, not as source text
+    (gtr's program was 2 MB of source with its Lambda table pasted in, about 10 ms per eval call
+    to assemble and hash); a configuration's source is assembled once."""
+    from clbrdf import build
+    wo, wi = np.array([[0.0, 0.6, 0.8]]), np.array([[0.0, -0.6, 0.8]])
+    for name, tables in (("gtr", ("gtr_lambda",)), ("sgd", ("sgd_lambda",)),
+                         ("exppow", ("exppow_g1",)), ("ggx", ())):
+        m = clbrdf.Model(name)
+        m.eval(wo, wi)
+        src, names = build.program_source(m.config, m.precision, m.width)
+        assert names == tables, (name, names)
+        assert len(src) < 150_000 and "__constant float" not in src, (name, len(src))
+        hits = build.program_source.cache_info().hits
+        m.eval(wo, wi)
+        assert build.program_source.cache_info().hits == hits + 1
+        assert build.tables_buffer(m.device, names) is build.get_program(
+            m.device, m.config, m.precision, m.width).tables
+    assert build.tables(("gtr_lambda",)).size == 38 * 28 * 73    # GTR_LT_NS x NA x NT

@@ -1,0 +1,82 @@
+"""Per-call overhead and build time of small kernel calls, side by side for several checkouts.
+
+    python benchmarks/bench_overhead.py --env old=/path/to/old/venv/bin/python \
+        --env new=.venv/bin/python [--rounds 3]
+
+Each environment's interpreter runs the same probe in a subprocess (alternating environments,
+``--rounds`` times): for each model, the program's source size and the number of tables it
+reads, the first ``eval`` call with an empty PoCL cache (source assembly + compilation + the
+call), and the median of 200 ``eval`` calls of 4 direction pairs afterwards (assembly, cache
+lookups, buffers, launch). Medians over rounds and the ratio of the first environment to each
+other one are printed as a Markdown table; results in benchmarks/RESULTS.md.
+"""
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+
+MODELS = ("ggx", "gtr", "sgd", "exppow", "sgd_bagher")
+
+PROBE = r"""
+import json, os, sys, time
+import numpy as np
+t0 = time.perf_counter()
+import clbrdf
+from clbrdf import build
+out = {"import_s": time.perf_counter() - t0}
+wo = np.array([[0.0, 0.6, 0.8]] * 4); wi = np.array([[0.0, -0.6, 0.8]] * 4)
+for name in sys.argv[1].split(","):
+    m = clbrdf.Model(name)
+    src = build.program_source(m.config, m.precision, m.width)
+    text = src[0] if isinstance(src, tuple) else src
+    t = time.perf_counter(); m.eval(wo, wi); first = time.perf_counter() - t
+    calls = []
+    for _ in range(200):
+        t = time.perf_counter(); m.eval(wo, wi); calls.append(time.perf_counter() - t)
+    calls.sort()
+    out[name] = {"source_kB": len(text) / 1024, "first_s": first, "call_ms": 1e3 * calls[100]}
+print(json.dumps(out))
+"""
+
+
+def run(python, models):
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, POCL_CACHE_DIR=cache)
+        r = subprocess.run([python, "-c", PROBE, ",".join(models)], capture_output=True,
+                           text=True, env=env, cwd=tempfile.gettempdir())
+    if r.returncode:
+        raise SystemExit(f"{python}: {r.stderr[-2000:]}")
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--env", action="append", required=True, help="NAME=PYTHON")
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--models", default=",".join(MODELS))
+    a = ap.parse_args()
+    envs = [e.split("=", 1) for e in a.env]
+    models = a.models.split(",")
+    res = {name: [] for name, _ in envs}
+    for _ in range(a.rounds):
+        for name, py in envs:
+            res[name].append(run(py, models))
+    med = {name: {m: {k: statistics.median(r[m][k] for r in rs) for k in rs[0][m]} for m in models}
+           for name, rs in res.items()}
+    base = envs[0][0]
+    print(f"| model | {' | '.join(f'{n}: source kB, first call s, call ms' for n, _ in envs)} | "
+          f"call ratio {base} / {' / '.join(n for n, _ in envs[1:])} |")
+    print("|---|" + "---|" * (len(envs) + 1))
+    for m in models:
+        cells = [f"{med[n][m]['source_kB']:.0f}, {med[n][m]['first_s']:.2f}, {med[n][m]['call_ms']:.3f}"
+                 for n, _ in envs]
+        ratios = [f"{med[base][m]['call_ms'] / med[n][m]['call_ms']:.1f}" for n, _ in envs[1:]]
+        print(f"| {m} | {' | '.join(cells)} | {' / '.join(ratios)} |")
+    print(f"\n{a.rounds} rounds, medians; machine: {os.cpu_count()} CPUs, {sys.platform}")
+
+
+if __name__ == "__main__":
+    main()
