@@ -150,7 +150,7 @@ inline realN as_pdf_h(const Params *p, vec3 wo, vec3 wi, vec3 h, realN kh)
     realN pdf = as_lobe_pdf(p, h, kh);
 #if AS_DIFFUSE
     realN pd = as_diffuse_prob(p, wo);
-    pdf = pd * wi.z * INV_PI_R + (1 - pd) * pdf;
+    pdf = cosine_mixture_pdf(pd, wi, pdf);
 #endif
     return sel((realN)0, pdf, (wi.z > 0) & (wo.z > 0));
 }

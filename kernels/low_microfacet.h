@@ -104,7 +104,7 @@ inline realN low_microfacet_pdf(const Params *p, vec3 wo, vec3 wi)
     realN pdf = low_mf_lobe_pdf(p, wo, add3(wi, wo));
 #if LOW_DIFFUSE
     realN pd = low_mf_diffuse_prob(p, wo);
-    pdf = pd * wi.z * INV_PI_R + (1 - pd) * pdf;
+    pdf = cosine_mixture_pdf(pd, wi, pdf);
 #endif
     return sel((realN)0, pdf, (wi.z > 0) & (wo.z > 0));
 }

@@ -146,7 +146,7 @@ inline realN microfacet_pdf(const Params *p, vec3 wo, vec3 wi)
     realN pdf = mf_lobe_pdf(m, wo, h);
 #if MF_DIFFUSE
     realN pd = mf_diffuse_prob(p, wo);
-    pdf = pd * wi.z * INV_PI_R + (1 - pd) * pdf;
+    pdf = cosine_mixture_pdf(pd, wi, pdf);
 #endif
     return sel((realN)0, pdf, (wi.z > 0) & (wo.z > 0));
 }
@@ -172,7 +172,7 @@ inline BSample microfacet_sample(const Params *p, vec3 wo, rand4 u)
     vec3 wc = square_to_cosine_hemisphere(u.u0, u.u1);
     s.wi = select3(s.wi, wc, diffuse);
     vec3 hh = select3(h, normalize3(add3(wc, wo)), diffuse);
-    s.pdf = pd * s.wi.z * INV_PI_R + (1 - pd) * mf_lobe_pdf(m, wo, hh);
+    s.pdf = cosine_mixture_pdf(pd, s.wi, mf_lobe_pdf(m, wo, hh));
     ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
     /* f cos_i = F D G / (4 cos_o) + kd cos_i / pi */
     realN lobe = MF(D)(m, hh) * mf_G(m, wo, s.wi, hh) / (4 * wo.z);

@@ -202,7 +202,7 @@ inline realN sch_layer_mix_pdf(SchLayer L, int aniso, vec3 wo, vec3 wi, vec3 h)
     realN lobe = sch_lobe_pdf(L, aniso, wo, h);
 #if SCH_DIFFUSE
     realN pd = sch_diffuse_prob(L, wo.z);
-    lobe = pd * wi.z * INV_PI_R + (1 - pd) * lobe;
+    lobe = cosine_mixture_pdf(pd, wi, lobe);
 #endif
     return lobe;
 }

@@ -73,7 +73,7 @@ inline realN ward_pdf(const Params *p, vec3 wo, vec3 wi)
     realN pdf = ward_lobe_pdf(p, wo, add3(wi, wo));
 #if WARD_DIFFUSE
     realN pd = ward_diffuse_prob(p);
-    pdf = pd * wi.z * INV_PI_R + (1 - pd) * pdf;
+    pdf = cosine_mixture_pdf(pd, wi, pdf);
 #endif
     return sel((realN)0, pdf, (wi.z > 0) & (wo.z > 0));
 }
@@ -93,7 +93,7 @@ inline BSample ward_sample(const Params *p, vec3 wo, rand4 u)
     vec3 wc = square_to_cosine_hemisphere(u.u0, u.u1);
     s.wi = select3(s.wi, wc, diffuse);
     vec3 sh = select3(h, add3(wc, wo), diffuse);
-    s.pdf = pd * s.wi.z * INV_PI_R + (1 - pd) * ward_lobe_pdf(p, wo, sh);
+    s.pdf = cosine_mixture_pdf(pd, s.wi, ward_lobe_pdf(p, wo, sh));
     maskN ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
     realN lobe = exp(-ward_exponent(p, sh)) * sqrt(s.wi.z / wo.z)
                  / (4 * PI_R * p->alpha_x * p->alpha_y);

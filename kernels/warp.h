@@ -22,4 +22,11 @@ inline vec3 square_to_cosine_hemisphere(realN u0, realN u1)
 }
 inline realN cosine_hemisphere_pdf(vec3 w) { return fmax(w.z, (realN)0) * INV_PI_R; }
 
+/* Density of a mixture that draws the cosine lobe with probability pd and a lobe of density
+ * lobe otherwise (wi above the horizon): the samplers of the models with a diffuse term. */
+inline realN cosine_mixture_pdf(realN pd, vec3 wi, realN lobe)
+{
+    return pd * wi.z * INV_PI_R + (1 - pd) * lobe;
+}
+
 #endif

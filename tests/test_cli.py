@@ -1,4 +1,5 @@
-"""The command line interface, run as a subprocess (python -m clbrdf.cli)."""
+"""The command line interface, run as a subprocess (python -m clbrdf.cli); the bad-input cases in
+the test process (tests/cliutil.py), with one of them also as a subprocess."""
 import json
 import os
 import subprocess
@@ -8,6 +9,7 @@ import numpy as np
 import pytest
 
 from clbrdf.ref import microfacet as R
+from cliutil import run_inprocess
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -257,7 +259,7 @@ BAD = [
 @pytest.mark.parametrize("args,words", BAD, ids=[" ".join(a[:4]) for a, _ in BAD])
 def test_bad_input(tmp_path, args, words):
     args = [a.replace("OUT", str(tmp_path / "out")) for a in args]
-    r = cli(*args)
+    r = run_inprocess(*args)
     assert r.returncode == 2, r.stderr
     err = r.stderr.strip()
     assert len(err.splitlines()) == 1, err
@@ -265,6 +267,13 @@ def test_bad_input(tmp_path, args, words):
     for w in words:
         assert w in err, (w, err)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_bad_input_as_a_process(tmp_path):
+    """The same as a real process: exit status 2, one line on stderr, nothing on stdout."""
+    r = cli("eval", "ggx", "--param", "alpha=0", "--wi", "0,0,1", "--wo", "0,0,1")
+    assert r.returncode == 2 and r.stdout == "" and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert "alpha=0" in r.stderr and "[0.0001, 10]" in r.stderr and "Traceback" not in r.stderr
 
 
 def test_failure_keeps_existing_files(tmp_path):

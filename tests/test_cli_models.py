@@ -1,20 +1,15 @@
 """`clbrdf albedo` and `clbrdf table` work for every registered model, with its defaults and with a
 preset where it has presets: exit 0, finite albedos in [0, 1.5], one per channel, and a table
-file whose E agrees with the Python API's bit for bit."""
+file whose E agrees with the Python API's bit for bit. In the test process (tests/cliutil.py;
+tests/test_cli.py runs the command line as a subprocess)."""
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
 import clbrdf
 from clbrdf import presets
-
-
-def run_cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "clbrdf.cli", *args], capture_output=True,
-                          text=True, cwd=cwd)
+from cliutil import run_inprocess as run_cli
 
 
 CASES = [(name, None) for name in clbrdf.MODELS] + \

@@ -298,7 +298,9 @@ def extreme_cases():
     for i, (dist, fresnel, precision) in enumerate(
             (d, f, p) for d in S.DISTS for f in S.FRESNELS for p in ("single", "double")):
         masking, sampler, kd, aniso = EXT_ROWS[(i + i // 4) % 4]
+        # double precision in the slow tier (each case is a kernel build)
         out.append(pytest.param(dist, fresnel, precision, masking, sampler, kd, aniso,
+                                marks=[pytest.mark.slow] if precision == "double" else [],
                                 id=f"{dist}-{fresnel}-{precision}-{masking}-{sampler}-"
                                    f"{'kd' if kd else 'nokd'}-{'aniso' if aniso else 'iso'}"))
     return out
