@@ -9,6 +9,7 @@
  * to 2e6 (also beyond the grid); G1 = 1 / (1 + Lambda):
  *   gtr: max |G1 - G1_quad| = 8.8e-05, max |Lambda/Lambda_quad - 1| = 1.6e-03 (1620 points)
  *   sgd: max |G1 - G1_quad| = 5.5e-05, max |Lambda/Lambda_quad - 1| = 3.6e-04 (1620 points)
+ * Over the whole served range (scripts/measure_lambda_tables.py): see docs/models/distributions.md.
  * Values (float32, row-major (shape, a, t)): kernels/data/gtr_lambda.npy and sgd_lambda.npy,
  * passed to the kernels in the tables buffer (clbrdf/build.py) at TABLE_gtr_lambda and
  * TABLE_sgd_lambda.

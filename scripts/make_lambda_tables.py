@@ -256,7 +256,8 @@ def main():
                     f"#define {up}_LT_KA {g['ka']:.9g}\n"
                     f"#define {up}_LT_LT0 {LT[0]:.9g}\n#define {up}_LT_DLT {g['lt'][2]:.9g}\n")
         np.save(ROOT / "kernels" / "data" / f"{dist}_lambda.npy", T.astype(np.float32).reshape(-1))
-    out += [" * Values (float32, row-major (shape, a, t)): kernels/data/gtr_lambda.npy and sgd_lambda.npy,",
+    out += [" * Over the whole served range (scripts/measure_lambda_tables.py): see docs/models/distributions.md.",
+            " * Values (float32, row-major (shape, a, t)): kernels/data/gtr_lambda.npy and sgd_lambda.npy,",
             " * passed to the kernels in the tables buffer (clbrdf/build.py) at TABLE_gtr_lambda and",
             " * TABLE_sgd_lambda."]
     out.append(" */\n#ifndef CLBRDF_DIST_LAMBDA_TABLES_H\n#define CLBRDF_DIST_LAMBDA_TABLES_H\n")

@@ -33,9 +33,12 @@ from clbrdf.ref import distributions as RD
 
 ROOT = Path(__file__).resolve().parents[1]
 
-# max |G1 - G1_quad| of the kernel's tables as stated in kernels/dist_lambda_tables.h (measured by
-# scripts/make_lambda_tables.py), rounded up; test_stated_table_error checks the header agrees
-TABLE_G1_ERR = {"gtr": 1e-4, "sgd": 1e-4}
+# The documented bound of max |G1 - G1_quad| of the kernels' tables over the whole range they
+# serve (docs/models/distributions.md): scripts/measure_lambda_tables.py measured 1.9e-4 (GTR,
+# at alpha = 1e-3, gamma 1.32, tan theta 191) and 7.9e-5 (SGD, alpha 0.93, p = 2) at 36160 points,
+# the kernels in double precision, cos theta down to 1e-12; the generator's own 1620 points had
+# found 8.8e-5 and 5.5e-5 (the bound was 1e-4 for both until then). Exp-power: 7.8e-6.
+TABLE_G1_ERR = {"gtr": 2e-4, "sgd": 1e-4, "exppow": 1e-5}
 REF_G1_ERR = 2e-6          # the reference interpolant's bound (asserted per configuration)
 N_NODES = 321
 SAMPLES = 1 << 23
@@ -106,9 +109,43 @@ def test_stated_table_error():
     """The header states (scripts/make_lambda_tables.py measured) errors within TABLE_G1_ERR."""
     text = (ROOT / "kernels" / "dist_lambda_tables.h").read_text()
     for model, bound in TABLE_G1_ERR.items():
+        if model == "exppow":
+            continue
         m = re.search(rf"{model}: max \|G1 - G1_quad\| = ([0-9.e+-]+)", text)
         assert m, model
         assert float(m.group(1)) <= bound, (model, m.group(1), bound)
+
+
+def _measure():
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("measure_lambda_tables",
+                                                  ROOT / "scripts" / "measure_lambda_tables.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+# the worst points found by scripts/measure_lambda_tables.py (alpha, shape, tan theta)
+WORST = {"gtr": [(1e-3, 1.322, 190.7), (1.363e-3, 1.525, 563.5), (1.077e-3, 1.432, 519.3)],
+         "sgd": [(0.9345, 2.0, 3.325), (0.3651, 1.993, 9.192), (1.0, 2.0, 3.257)],
+         "exppow": [(2.285, 4.975, 0.4437), (0.4247, 4.982, 2.46)]}
+
+
+@pytest.mark.parametrize("model", ["gtr", "sgd", "exppow"])
+def test_table_error_within_bound_over_the_served_range(model):
+    """The kernels' tabulated Lambda (double precision) against quadrature, |dG1| <= the documented
+    bound, at 400 random points over the whole served range (alpha, shape from the model's
+    description; tan theta in [1e-4, 1e12]), its corners and the worst points the measurement
+    found. With the old bound 1e-4 GTR fails (1.9e-4 at its worst point)."""
+    M = _measure()
+    a, s, t, _, _ = M.points(model, 400, seed=5)
+    w = np.array(WORST[model])
+    a, s, t = np.r_[a, w[:, 0]], np.r_[s, w[:, 1]], np.r_[t, w[:, 2]]
+    k = M.kernel_lambda(model, a, s, t)
+    q = np.array([M.quad_lambda(model, *x) for x in zip(a, s, t)])
+    err = np.abs(1 / (1 + k) - 1 / (1 + q))
+    i = int(np.argmax(err))
+    assert err[i] <= TABLE_G1_ERR[model], (model, err[i], a[i], s[i], t[i])
 
 
 @pytest.fixture(scope="module")
