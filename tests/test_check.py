@@ -133,9 +133,10 @@ def test_battery_over_configurations(name, cid, kw):
     term, a fit with ks > 1, ...: reported, and listed in the note of the run) and the model's
     known failures."""
     if name == "sgd_bagher" and cid.startswith("preset="):
-        pytest.xfail("open defect: in single precision the per-channel lobe mixture's weights "
-                     "differ from f cos / pdf by up to 90 % at mu <= 1e-4 (4-14 % of the grid's "
-                     "samples); double precision passes")
+        pytest.xfail("open defect: in single precision the fits' shadowing G1 = 1 - lam "
+                     "expm1(c (theta - theta0)^k), k up to 48, is near its zero at grazing and "
+                     "float32 cannot resolve it (alum-bronze G1(mu = 1e-6) 4.92e-5 against "
+                     "5.44e-5 in float64): weights off f cos / pdf at mu <= 1e-4; double passes")
     r = check(name, **kw)            # the defaults of clbrdf check, as in the test above
     allowed = {"energy"} | KNOWN_FAILURES.get(name, set()) | KNOWN_DEFECTS.get(name, set())
     assert failing(r) <= allowed, r.table()
