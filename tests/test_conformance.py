@@ -8,6 +8,8 @@ added to the registry with a reference is covered here with no test code of its 
   accuracy of the tabulated Lambda (``TABULATED``: |dG1| <= 2e-4, so G within 1e-3 relative
   for cos theta >= 0.1 where G1 >= 0.3) for the models that tabulate it;
 - reciprocity f(wo, wi) = f(wi, wo) where the reference says the paper claims it (1e-10);
+- single-precision eval and pdf against the double-precision kernel at the same rounded
+  directions, within rounding and the formula's conditioning at the point;
 - the brdf estimator's albedo at mu = 0.5 (2^16 samples) against the reference's deterministic
   quadrature: |z| below the two-sided Sidak bound for family-wise significance 1e-3 over every
   channel of every configuration (z = 4.7 for 360 comparisons), after adding the reference's
@@ -103,3 +105,48 @@ def test_reference_interface_is_registered_for_every_model():
         for method in ("eval", "pdf", "albedo"):
             assert callable(getattr(ref, method)), (name, method)
         assert isinstance(ref.reciprocal, bool), name
+
+
+def _perturbed_spread(fn, wo, wi, k=6, seed=3):
+    """max over k random perturbations of both directions by one float32 unit roundoff (relative,
+    renormalised) of |fn - fn(wo, wi)|, in double precision: how much the value moves when its
+    inputs move by a float32 rounding."""
+    rng = np.random.default_rng(seed)
+    base = np.asarray(fn(wo, wi), float)
+    out = np.zeros_like(base)
+    eps = np.finfo(np.float32).eps
+    for _ in range(k):
+        a = wo * (1 + eps * rng.uniform(-1, 1, wo.shape))
+        b = wi * (1 + eps * rng.uniform(-1, 1, wi.shape))
+        a /= np.linalg.norm(a, axis=-1, keepdims=True)
+        b /= np.linalg.norm(b, axis=-1, keepdims=True)
+        out = np.maximum(out, np.abs(np.asarray(fn(a, b), float) - base))
+    return out
+
+
+@pytest.mark.parametrize("name, cid, kw", [c if c[1] in FAST_EVAL else
+                                           pytest.param(*c, marks=pytest.mark.slow) for c in CASES],
+                         ids=[f"{n}-{c}" for n, c, _ in CASES])
+def test_single_precision_matches_double(name, cid, kw):
+    """Single-precision eval and pdf against the double-precision kernel (itself checked against
+    the reference above) at the same float32-rounded directions: |single - double| <= 32 float32
+    units of the value + 4 times the double value's spread over one-rounding perturbations of the
+    directions (the formula's conditioning at the point), + 1e-30: float32 exp(-y) underflows
+    below 1.2e-38 and the factors after it (SGD: kap / (pi y^p cos^4 theta_h)) reach 1e8, so values
+    below 1e-30 may flush to 0 (SGD returned 0 for 5e-36). Presets and per-channel lobes included,
+    cos theta >= 0.02."""
+    s = clbrdf.Model(name, **kw)
+    d = clbrdf.Model(name, precision="double", **kw)
+    wo = WO.astype(np.float32).astype(float)
+    wi = WI.astype(np.float32).astype(float)
+    eps = float(np.finfo(np.float32).eps)
+    for what in ("eval", "pdf"):
+        fs = np.asarray(getattr(s, what)(wo, wi), float)
+        fd = np.asarray(getattr(d, what)(wo, wi), float)
+        spread = _perturbed_spread(getattr(d, what), wo, wi)
+        bound = 32 * eps * np.abs(fd) + 4 * spread + 1e-30
+        err = np.abs(fs - fd)
+        i = np.unravel_index(int(np.argmax(err / bound)), err.shape)
+        assert np.all(err <= bound), (f"{what}: {np.count_nonzero(err > bound)} values off; worst "
+                                      f"single {fs[i]!r} double {fd[i]!r} bound {bound[i]:.3g} "
+                                      f"at wo={wo[i[0]]}, wi={wi[i[0]]}")
