@@ -3,9 +3,11 @@
  *
  *   f = (rho_d + rho_s F(wi.h) D(h) G1(wi) G1(wo) / (cos_i cos_o)) / pi
  *   D  = kap e^-y / (pi y^p cos^4 theta_h), y = alpha + tan^2 theta_h / alpha    (Bagher eq 6)
- *   F  = f0 - f1 c + (1 - c)^5 (1 - f0), c = clamp(wi.h, 0, 1)                   (Bagher eq 8)
+ *   F  = max(0, f0 - f1 c + (1 - c)^5 (1 - f0)), c = clamp(wi.h, 0, 1)           (Bagher eq 8)
  *   G1 = clamp(1 + lambda (1 - exp(c_g max(0, theta - theta0)^k)), 0, 1)          (Bagher eq 10)
  * Note the 1/pi outside: the specular term is (4 rho_s / pi) times the microfacet F D G / (4 ...).
+ * The max(0, ...) is ours: the fit goes below 0 near c = 1 when f1 > f0 (3 of the 100 published
+ * fits: blue-fabric to -0.073, white-fabric2, white-paint), which made f and E negative.
  *
  * | parameter | meaning (all per channel)                         | range          |
  * |-----------|---------------------------------------------------|----------------|
@@ -18,7 +20,7 @@
  *
  * SGDB_KAP: 1 when kap is given. Sampling: one direction for all channels from the mixture of
  * 2 CHANNELS lobes, the cosine lobe of weight rho_d[c] and the SGD normals of channel c of weight
- * (4/pi) rho_s[c] kap[c] alpha[c] Gamma(1-p[c], alpha[c]) max(F_c(cos_o), 0); the density is the
+ * (4/pi) rho_s[c] kap[c] alpha[c] Gamma(1-p[c], alpha[c]) F_c(cos_o); the density is the
  * mixture density.
  */
 #ifndef CLBRDF_SGD_BAGHER_H
@@ -32,7 +34,7 @@
 inline realN sgdb_fresnel(const Params *P, realN c, int ch)
 {
     realN m = 1 - c, m2 = m * m;
-    return P->f0[ch] - c * P->f1[ch] + m2 * m2 * m * (1 - P->f0[ch]);
+    return fmax(P->f0[ch] - c * P->f1[ch] + m2 * m2 * m * (1 - P->f0[ch]), (realN)0);
 }
 
 inline realN sgdb_g1(const Params *P, vec3 w, int ch)
@@ -89,7 +91,7 @@ inline realN sgdb_weights(const Params *P, vec3 wo, const realN *inv_kap, realN 
         wd[ch] = P->rho_d[ch];
         ws[ch] = (realN)(4 * 0.31830988618379067154) * P->rho_s[ch]
                  * sgdb_kap(P, ch, inv_kap[ch]) * inv_kap[ch]
-                 * fmax(sgdb_fresnel(P, clamp(wo.z, (realN)0, (realN)1), ch), (realN)0);
+                 * sgdb_fresnel(P, clamp(wo.z, (realN)0, (realN)1), ch);
         tot += wd[ch] + ws[ch];
     }
     return tot;

@@ -334,6 +334,20 @@ def test_bagher_presets_match_dj_brdf_formula():
         assert pre.params["lam"][0] == float(row["lambda_r"])
 
 
+@pytest.mark.parametrize("precision", ["single", "double"])
+def test_bagher_negative_fresnel_fit_is_clamped(precision):
+    """F = f0 - f1 c + (1 - c)^5 (1 - f0) goes below 0 near c = 1 when f1 > f0 (3 of the 100
+    published fits; f0 = 0.1, f1 = 0.5 here: F(1) = -0.4): the kernel and the reference take
+    max(F, 0), so f and E are never negative (before: f(n, n) = -12.7 /sr, E(1) = -0.157). At c = 1
+    only the diffuse term is left: f(n, n) = rho_d / pi."""
+    m = clbrdf.Model("sgd_bagher", precision=precision, f0=0.1, f1=0.5)
+    n = np.array([0.0, 0.0, 1.0])
+    np.testing.assert_allclose(m.eval(n, n), 0.1 / np.pi, rtol=1e-6)
+    assert np.all(clbrdf.albedo(m, [1.0, 0.5, 0.1], samples=1 << 14).albedo >= 0)
+    mp = clbrdf.Model("sgd_bagher", precision=precision, preset="blue-fabric")
+    assert np.all(mp.eval(n, n) >= 0) and np.all(clbrdf.albedo(mp, 1.0, samples=1 << 14).albedo >= 0)
+
+
 BAGHER = dict(rho_d=[0.3, 0.1, 0.05], rho_s=[0.2, 0.5, 0.8], alpha=[0.02, 0.005, 0.3],
               p=[0.4, 1.5, 0.0], f0=[1.2, 0.5, 1.0], f1=[0.2, -0.3, 0.0],
               lam=[3.0, 0.5, 1.0], c=[1e-7, 2e-6, 1e-3], k=[30.0, 20.0, 5.0],

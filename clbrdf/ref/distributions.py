@@ -241,9 +241,10 @@ def bagher_g1(w, theta0, c, k, lam):
 
 
 def bagher_fresnel(cos_d, f0, f1):
-    """dj_brdf fresnel::sgd: f0 - c f1 + (1 - c)^5 (1 - f0)."""
+    """dj_brdf fresnel::sgd, f0 - c f1 + (1 - c)^5 (1 - f0), and not below 0 (ours: 3 of the
+    published fits go below 0 near c = 1)."""
     c = np.asarray(cos_d, float)
-    return f0 - c * f1 + (1 - c) ** 5 * (1 - f0)
+    return np.maximum(f0 - c * f1 + (1 - c) ** 5 * (1 - f0), 0.0)
 
 
 def bagher_ndf(h, alpha, p, kap):
@@ -320,10 +321,10 @@ def eval(model, wo, wi, *, alpha, masking="correlated", **params):
 
 def bagher_weights(wo, rho_d, rho_s, alpha, p, kap, f0, f1):
     """Lobe weights of the sgd_bagher sampling mixture (per channel): cosine rho_d; SGD normals
-    (4/pi) rho_s kap alpha Gamma(1-p, alpha) max(F(cos_o), 0)."""
+    (4/pi) rho_s kap alpha Gamma(1-p, alpha) F(cos_o) (F not below 0: bagher_fresnel)."""
     co = np.clip(np.asarray(wo, float)[..., 2], 0, 1)
     inv_kap = alpha * upper_gamma(1 - p, alpha)
-    ws = 4 / np.pi * rho_s * kap * inv_kap * np.maximum(bagher_fresnel(co, f0, f1), 0)
+    ws = 4 / np.pi * rho_s * kap * inv_kap * bagher_fresnel(co, f0, f1)
     return rho_d, ws
 
 
