@@ -65,12 +65,18 @@ def table_data(name: str):
     return a
 
 
+def _table_names(source: str) -> tuple[str, ...]:
+    code = re.sub(r"/\*.*?\*/|//[^\n]*", "", source, flags=re.S)     # names in comments do not count
+    return tuple(dict.fromkeys(_TABLE.findall(code)))
+
+
 def with_tables(source: str) -> tuple[str, tuple[str, ...]]:
     """The source with ``#define TABLE_name offset`` for every table it names (in order of first
-    use), and those names: the program's tables buffer is their concatenation (``tables``)."""
-    code = re.sub(r"/\*.*?\*/|//[^\n]*", "", source, flags=re.S)     # names in comments do not count
-    names = tuple(dict.fromkeys(_TABLE.findall(code)))
-    lines, off = [], 0
+    use) and ``CLBRDF_TABLES`` (whether there are any: only then do ``Params`` and ``Microfacet``
+    carry the tables pointer, which halved PoCL's width-1 speed for GGX), and those names: the
+    program's tables buffer is their concatenation (``tables``)."""
+    names = _table_names(source)
+    lines, off = [f"#define CLBRDF_TABLES {int(bool(names))}"], 0
     for n in names:
         lines.append(f"#define TABLE_{n} {off}")
         off += table_data(n).size
@@ -116,10 +122,11 @@ def program_source(cfg: Config, precision: str, width: int, *, part: str = "batc
         fields.append(f"    realN {n}{'[CHANNELS]' if spectral else ''};")
         row += cfg.rows(n)
     lines.append(f"#define PARAMS(X, XS) {' '.join(items)}")
-    fields.append("    Tables tables;")
+    model = [expand(h, seen) for h in cfg.headers] + [expand(cfg.header, seen)]
+    if _table_names("\n".join(model)):
+        fields.append("    Tables tables;")
     body.append("typedef struct {\n" + "\n".join(fields) + "\n} Params;\n")
-    body += [expand(h, seen) for h in cfg.headers]
-    body.append(expand(cfg.header, seen))
+    body += model
     body.append(expand("integrators.cl", seen))
     return with_tables("\n".join(lines) + "\n" + "\n".join(body))
 

@@ -58,7 +58,7 @@ inline realN hp_diffraction_scale(const Params *p, int c, realN *albedo)
  * rounded wi misses a near-mirror lobe at grazing angles in single precision). */
 inline spec hp_eval_h(const Params *p, vec3 wo, vec3 wi, vec3 h)
 {
-    Microfacet m = {p->sigma, p->sigma, p->p, p->tables};
+    Microfacet m = MICROFACET(p->sigma, p->sigma, p->p, p);
     realN G = 1 / ((1 + exppow_Lambda(m, wi)) * (1 + exppow_Lambda(m, wo)));   /* eq 6-7 */
     realN refl = exppow_D(m, h) / (4 * wi.z * wo.z);                            /* eq 24, 26 */
 
@@ -100,7 +100,7 @@ inline realN hp_lobe_probs(const Params *p, realN *ps)
 
 inline realN hp_pdf_h(const Params *p, vec3 wo, vec3 wi, vec3 h)
 {
-    Microfacet m = {p->sigma, p->sigma, p->p, p->tables};
+    Microfacet m = MICROFACET(p->sigma, p->sigma, p->p, p);
     realN ps, pc = hp_lobe_probs(p, &ps);
     realN oh = dot3(wo, h);
     realN lobe = sel((realN)0, exppow_D(m, h) * h.z / (4 * oh), oh > 0);
@@ -115,7 +115,7 @@ inline realN holzschuch_pacanowski_pdf(const Params *p, vec3 wo, vec3 wi)
 
 inline BSample holzschuch_pacanowski_sample(const Params *p, vec3 wo, rand4 u)
 {
-    Microfacet m = {p->sigma, p->sigma, p->p, p->tables};
+    Microfacet m = MICROFACET(p->sigma, p->sigma, p->p, p);
     realN ps;
     hp_lobe_probs(p, &ps);
     vec3 h = exppow_sample_ndf(m, u.u0, u.u1);

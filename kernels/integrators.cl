@@ -64,7 +64,9 @@ __kernel void random_batch(const ulong n, const uint point, const uint stream, c
 inline Params load_params(const global real_t *P, Tables TABLES, ulong stride, ulong i)
 {
     Params p;
+#if CLBRDF_TABLES
     p.tables = TABLES;
+#endif
 #define LOAD_ONE(name, j) p.name = VLOAD(P + (j) * stride + i);
 #define LOAD_SPEC(name, j) for (int c = 0; c < CHANNELS; ++c) p.name[c] = VLOAD(P + ((j) + c) * stride + i);
     PARAMS(LOAD_ONE, LOAD_SPEC)
@@ -77,7 +79,9 @@ inline Params load_params(const global real_t *P, Tables TABLES, ulong stride, u
 inline Params splat_params(const global real_t *P, Tables TABLES, ulong stride, ulong i)
 {
     Params p;
+#if CLBRDF_TABLES
     p.tables = TABLES;
+#endif
 #define SPLAT_ONE(name, j) p.name = (realN)P[(j) * stride + i];
 #define SPLAT_SPEC(name, j) for (int c = 0; c < CHANNELS; ++c) p.name[c] = (realN)P[((j) + c) * stride + i];
     PARAMS(SPLAT_ONE, SPLAT_SPEC)

@@ -51,9 +51,9 @@
 inline Microfacet mf_distribution(const Params *p)
 {
 #if MF_ANISO
-    Microfacet m = {p->alpha_x, p->alpha_y, (realN)0, p->tables};
+    Microfacet m = MICROFACET(p->alpha_x, p->alpha_y, (realN)0, p);
 #else
-    Microfacet m = {p->alpha, p->alpha, (realN)0, p->tables};
+    Microfacet m = MICROFACET(p->alpha, p->alpha, (realN)0, p);
 #endif
 #ifdef MF_SHAPE
     m.shape = p->MF_SHAPE;

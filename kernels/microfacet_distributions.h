@@ -12,7 +12,13 @@
 
 /* ax, ay: roughness along x and y; shape: a second parameter of the NDFs that have one
  * (GTR gamma, SGD p, exponential-power p). */
+#if CLBRDF_TABLES      /* the program has generated tables (clbrdf/build.py) */
 typedef struct { realN ax, ay, shape; Tables tables; } Microfacet;
+#define MICROFACET(ax, ay, shape, P) {ax, ay, shape, (P)->tables}
+#else
+typedef struct { realN ax, ay, shape; } Microfacet;
+#define MICROFACET(ax, ay, shape, P) {ax, ay, shape}
+#endif
 
 /* Squared roughness along the azimuth of w, times tan^2 theta_w: (wx^2 ax^2 + wy^2 ay^2) / wz^2. */
 inline realN projected_roughness2(Microfacet m, vec3 w)

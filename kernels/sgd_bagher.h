@@ -141,7 +141,7 @@ inline BSample sgd_bagher_sample(const Params *P, vec3 wo, rand4 u)
         found = found | in_d | in_s;
         acc = end_s;
     }
-    Microfacet m = {a, a, pp, P->tables};
+    Microfacet m = MICROFACET(a, a, pp, P);
     vec3 h = sgd_sample_ndf(m, u.u0, u.u1);
     BSample s;
     vec3 wc = square_to_cosine_hemisphere(u.u0, u.u1);
