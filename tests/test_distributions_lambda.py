@@ -165,7 +165,7 @@ def references():
     return get
 
 
-@pytest.mark.parametrize("masking", ["correlated", "separable"])
+@pytest.mark.parametrize("masking", ["correlated", pytest.param("separable", marks=pytest.mark.slow)])
 @pytest.mark.parametrize("model,kw", CASES, ids=[cid(m, k) for m, k in CASES])
 def test_albedo_with_masking(model, kw, masking, references, model_cache):
     """BRDF-sampled Monte Carlo albedo (2^21 samples, F = 1) of the kernel with the tabulated

@@ -313,12 +313,16 @@ def test_albedo_lambert_exact():
         assert E == pytest.approx(0.8, rel=1e-14) and err < 1e-14
 
 
+_SLOW = pytest.mark.slow        # each brute-force case takes 1.5 s
 @pytest.mark.parametrize("model,mu,phi,p", [
     ("ggx", 0.5, 0.0, dict(alpha=0.3)),
-    ("beckmann", 0.2, 0.5, dict(alpha=0.6, masking="separable", fresnel="conductor", eta=0.2, k=3.0)),
+    pytest.param("beckmann", 0.2, 0.5, dict(alpha=0.6, masking="separable", fresnel="conductor",
+                                            eta=0.2, k=3.0), marks=_SLOW),
     ("ggx", 0.9, 1.0, dict(alpha_x=0.3, alpha_y=0.6, fresnel="dielectric", eta=1.5, kd=0.3)),
-    ("ggx", 0.1, 0.3, dict(alpha=0.6, masking="none", fresnel="schlick", f0=0.1)),
-    ("beckmann", 0.7, 1.1, dict(alpha=0.3, masking="vcavity", fresnel="schlick", f0=0.5)),
+    pytest.param("ggx", 0.1, 0.3, dict(alpha=0.6, masking="none", fresnel="schlick", f0=0.1),
+                 marks=_SLOW),
+    pytest.param("beckmann", 0.7, 1.1, dict(alpha=0.3, masking="vcavity", fresnel="schlick",
+                                            f0=0.5), marks=_SLOW),
     ("ggx", 0.5, 0.0, dict(alpha=1.0)),            # the furnace value, GGX correlated
 ])
 def test_albedo_against_brute_force(model, mu, phi, p):

@@ -223,7 +223,7 @@ EXTREME_R = (1e-7, 1e-3, 1.0)
 EXTREME_P = (1e-6, 0.3, 1.0)
 
 
-@pytest.mark.parametrize("width", [1, 16])
+@pytest.mark.parametrize("width", [16, pytest.param(1, marks=pytest.mark.slow)])   # W = 1: extra builds
 @pytest.mark.parametrize("precision", ["single", "double"])
 @pytest.mark.parametrize("eq", EQS)
 def test_no_nan_at_extremes(eq, precision, width):
