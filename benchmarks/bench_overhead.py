@@ -67,14 +67,16 @@ def main():
     med = {name: {m: {k: statistics.median(r[m][k] for r in rs) for k in rs[0][m]} for m in models}
            for name, rs in res.items()}
     base = envs[0][0]
-    print(f"| model | {' | '.join(f'{n}: source kB, first call s, call ms' for n, _ in envs)} | "
-          f"call ratio {base} / {' / '.join(n for n, _ in envs[1:])} |")
-    print("|---|" + "---|" * (len(envs) + 1))
+    ratio_head = (f" call ratio {base} / {' / '.join(n for n, _ in envs[1:])} |"
+                  if len(envs) > 1 else "")
+    print(f"| model | {' | '.join(f'{n}: source kB, first call s, call ms' for n, _ in envs)} |"
+          + ratio_head)
+    print("|---|" + "---|" * (len(envs) + (len(envs) > 1)))
     for m in models:
         cells = [f"{med[n][m]['source_kB']:.0f}, {med[n][m]['first_s']:.2f}, {med[n][m]['call_ms']:.3f}"
                  for n, _ in envs]
         ratios = [f"{med[base][m]['call_ms'] / med[n][m]['call_ms']:.1f}" for n, _ in envs[1:]]
-        print(f"| {m} | {' | '.join(cells)} | {' / '.join(ratios)} |")
+        print(f"| {m} | {' | '.join(cells)} |" + (f" {' / '.join(ratios)} |" if ratios else ""))
     print(f"\n{a.rounds} rounds, medians; machine: {os.cpu_count()} CPUs, {sys.platform}")
 
 

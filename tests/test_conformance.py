@@ -34,6 +34,13 @@ CASES = [(n, cid, kw) for n in clbrdf.MODELS for cid, kw in configurations(n)]
 # (each configuration is a kernel build: 239 cases take about 4 min with cold caches)
 FAST = {"defaults"}
 FAST_EVAL = {"defaults", "rgb"}
+
+
+def tiered(fast):
+    """CASES as parameters: the ids in ``fast`` in the default run, the others slow."""
+    return pytest.mark.parametrize(
+        "name, cid, kw", [c if c[1] in fast else pytest.param(*c, marks=pytest.mark.slow)
+                          for c in CASES], ids=[f"{n}-{c}" for n, c, _ in CASES])
 Z_ALBEDO = float(sps.norm.isf(sidak(1e-3, 3 * len(CASES)) / 2))
 
 
@@ -71,9 +78,7 @@ def _model(name, kw):
     return clbrdf.Model(name, precision="double", **kw)
 
 
-@pytest.mark.parametrize("name, cid, kw", [c if c[1] in FAST_EVAL else
-                                           pytest.param(*c, marks=pytest.mark.slow) for c in CASES],
-                         ids=[f"{n}-{c}" for n, c, _ in CASES])
+@tiered(FAST_EVAL)
 def test_kernel_matches_reference(name, cid, kw):
     m = _model(name, kw)
     ref = reference(m)
@@ -84,9 +89,7 @@ def test_kernel_matches_reference(name, cid, kw):
         _close(m.eval(WI, WO), m.eval(WO, WI), 1e-10, "reciprocity")
 
 
-@pytest.mark.parametrize("name, cid, kw", [c if c[1] in FAST else
-                                           pytest.param(*c, marks=pytest.mark.slow) for c in CASES],
-                         ids=[f"{n}-{c}" for n, c, _ in CASES])
+@tiered(FAST)
 def test_albedo_matches_reference(name, cid, kw):
     m = _model(name, kw)
     ref = reference(m)
@@ -124,9 +127,7 @@ def _perturbed_spread(fn, wo, wi, k=6, seed=3):
     return out
 
 
-@pytest.mark.parametrize("name, cid, kw", [c if c[1] in FAST_EVAL else
-                                           pytest.param(*c, marks=pytest.mark.slow) for c in CASES],
-                         ids=[f"{n}-{c}" for n, c, _ in CASES])
+@tiered(FAST_EVAL)
 def test_single_precision_matches_double(name, cid, kw):
     """Single-precision eval and pdf against the double-precision kernel (itself checked against
     the reference above) at the same float32-rounded directions: |single - double| <= 32 float32

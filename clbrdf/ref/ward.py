@@ -33,9 +33,9 @@ class WardReference(Reference):
         e, h = _parts(wo, wi, ax, ay)
         with np.errstate(invalid="ignore", divide="ignore"):
             lobe = e / (np.pi * ax * ay * h[..., 2] ** 3) / (4 * np.sum(wo * h, -1))
-        if "kd" in self.params:
-            kd = float(np.sum(self.params["kd"]) * (3 / self.params["kd"].size if self.channels == 3 else 1))
-            ks = float(np.sum(self.params["ks"]) * (3 / self.params["ks"].size if self.channels == 3 else 1))
+        if "kd" in self.params:                   # channel sums, as the kernel's mixture
+            kd = sum(float(v["kd"]) for v in self.channel_values())
+            ks = sum(float(v["ks"]) for v in self.channel_values())
             pd = kd / (kd + ks) if kd + ks > 0 else 0.0
             lobe = pd * wi[..., 2] * INV_PI + (1 - pd) * lobe
         return np.where((wi[..., 2] > 0) & (wo[..., 2] > 0), lobe, 0.0)
