@@ -447,10 +447,22 @@ def check(model, *, samples: int = 1 << 16, seed: int = 0, precision: str = "sin
     return CheckReport(m.name, m.describe(), m.precision, checks, time.perf_counter() - t0)
 
 
-def configurations(name: str) -> list[tuple[str, dict]]:
+def edge(p, side: str) -> float:
+    """The value of parameter ``p`` at the ``lo`` or ``hi`` edge of its range: ``lo`` itself, or
+    where ``lo`` is excluded the next value in, 1e-6 of the way (or 1e-6 of lo, if lo > 0)."""
+    if side == "hi":
+        return float(p.hi)
+    if not p.lo_open:
+        return float(p.lo)
+    return float(p.lo + (abs(p.lo) * 1e-6 if p.lo else 1e-6 * min(1.0, p.hi - p.lo)))
+
+
+def configurations(name: str, edges: bool = True) -> list[tuple[str, dict]]:
     """(id, keywords) of the configurations that the conformance battery runs for model
     ``name``, drawn from its description: the defaults, RGB, each option value, each optional
-    parameter added, and up to three presets (double precision is a keyword of its own)."""
+    parameter added, up to three presets, and (``edges``) each parameter at the lo and hi edges
+    of its range, alone or with the option value that makes it used (ids ``alpha=lo``; double
+    precision is a keyword of its own)."""
     from . import presets
     from .models import get_spec
     from .spec import ParameterError
@@ -464,15 +476,28 @@ def configurations(name: str) -> list[tuple[str, dict]]:
             if p.name not in base.param_names and not p.computed]
     for mat in presets.materials(name)[::37][:3]:
         out.append((f"preset={mat}", {"preset": mat}))
-    valid = []
-    for cid, kw in out:
+
+    def valid(kw):
         try:
             kw2 = dict(kw)
             if "preset" in kw2:
                 p = presets.get(name, kw2.pop("preset"))
                 kw2 = {**p.options, **p.params, "channels": 3}
             spec.configure(**kw2)
+            return True
         except ParameterError:
-            continue                    # e.g. layer-2 parameters of schlick without material=double
-        valid.append((cid, kw))
-    return valid
+            return False                # e.g. layer-2 parameters of schlick without material=double
+    out = [(cid, kw) for cid, kw in out if valid(kw)]
+    if edges:
+        for p in spec.params:
+            if p.computed:
+                continue
+            for side in ("lo", "hi"):
+                kw = {p.name: edge(p, side)}
+                if p.name in base.param_names and kw[p.name] == p.default:
+                    continue            # the defaults again
+                alts = [kw] + [{**kw, o.name: c} for o in spec.options for c in o.choices]
+                ok = next((a for a in alts if valid(a)), None)
+                if ok is not None:
+                    out.append((f"{p.name}={side}", ok))
+    return out

@@ -238,7 +238,7 @@ def albedo(m: Model, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 <
 
     ``mu`` = cos(theta_o) and ``phi`` (azimuth of wo) broadcast with the model's parameters.
     ``estimator``: ``uniform`` / ``cosine`` hemisphere sampling, ``brdf`` importance sampling,
-    ``mis`` (one-sample balance heuristic of brdf and cosine). ``qmc``: Owen-scrambled Sobol points
+    ``mis`` (balance heuristic, one brdf and one cosine sample per estimate). ``qmc``: Owen-scrambled Sobol points
     in 16 independent scrambles (the error estimate is their spread) instead of Philox.
     The result is bit-identical for the same arguments, device kind and width, whatever the
     chunking or work-group size. Host memory does not grow with ``samples``.

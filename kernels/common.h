@@ -220,6 +220,13 @@ inline spec spec_scale(spec s, realN v)
     return s;
 }
 
+inline spec spec_add(spec a, spec b)
+{
+    for (int c = 0; c < CHANNELS; ++c)
+        a.c[c] += b.c[c];
+    return a;
+}
+
 inline spec spec_sel(spec a, spec b, maskN m)
 {
     for (int c = 0; c < CHANNELS; ++c)

@@ -9,16 +9,28 @@ inline realN fresnel_schlick(realN f0, realN c)
     return f0 + (1 - f0) * (m2 * m2 * m);
 }
 
+/* eta^2 - sin^2 theta for c = cos theta, from whichever of (eta - 1)(eta + 1) + c^2 and
+ * eta^2 - (1 - c)(1 + c) has the smaller rounding error (eps (|eta^2 - 1| + c^2) against
+ * eps (eta^2 + sin^2)): the first is exact at eta = 1, where the second loses c^2 at grazing; the
+ * second keeps eta^2 at small eta, where the first cancels (eta = 1e-6, c = 1: 6e-8 for 1e-12). */
+inline realN eta2_minus_sin2(realN eta, realN c, realN s2)
+{
+    realN a = (eta - 1) * (eta + 1), e2 = eta * eta;
+    return sel(e2 - s2, a + c * c, fabs(a) + c * c < e2 + s2);
+}
+
 /* Exact unpolarised dielectric (Cook & Torrance 1982, eq 8 of their appendix), relative index
  * eta of the inside to the outside; total internal reflection (g^2 < 0) gives 1.
- * g^2 = (eta - 1)(eta + 1) + c^2 keeps g = c (F = 0) at eta = 1 where eta^2 - 1 + c^2 loses c^2
- * in single precision; the one 0/0 point, eta = 1 and c = 0, takes its limit along c, 0. */
+ * g^2 = eta^2 - sin^2 by eta2_minus_sin2 keeps g = c (F = 0) at eta = 1 and g at small eta; the
+ * one 0/0 point, eta = 1 and c = 0, takes its limit along c, 0. */
 inline realN fresnel_dielectric(realN eta, realN c)
 {
-    realN g2 = (eta - 1) * (eta + 1) + c * c;
+    realN s2 = (1 - c) * (1 + c);
+    realN g2 = eta2_minus_sin2(eta, c, s2);
     realN g = safe_sqrt(g2);
     realN a = (g - c) / (g + c);
-    realN b = (c * (g + c) - 1) / (c * (g - c) + 1);
+    /* b = (c (g + c) - 1) / (c (g - c) + 1), written without the cancellation of c^2 - 1 */
+    realN b = (c * g - s2) / (c * g + s2);
     realN F = sel((realN)0.5 * a * a * (1 + b * b), (realN)0, g + c == 0);
     return sel(F, (realN)1, g2 < 0);
 }
@@ -31,10 +43,10 @@ inline realN fresnel_dielectric(realN eta, realN c)
  * k = 0); a^2 and b^2 each from the form without cancellation for the sign of t1. */
 inline realN fresnel_conductor(realN eta, realN k, realN c)
 {
-    realN c2 = c * c, s2 = 1 - c2;
-    /* t1 = eta^2 - k^2 - s^2 as (eta - 1)(eta + 1) - k^2 + c^2: exact at eta = 1, k = 0, where
-     * 1 - s^2 lost c^2 < 6e-8 in single and F came out 1 at grazing instead of 0 */
-    realN t1 = (eta - 1) * (eta + 1) - k * k + c2, ek2 = 2 * eta * eta * k * k;
+    realN c2 = c * c, s2 = (1 - c) * (1 + c);
+    /* t1 = eta^2 - k^2 - s^2 with eta^2 - s^2 from eta2_minus_sin2: exact at eta = 1, k = 0,
+     * where eta^2 - s^2 lost c^2 < 6e-8 in single and F came out 1 at grazing instead of 0 */
+    realN t1 = eta2_minus_sin2(eta, c, s2) - k * k, ek2 = 2 * eta * eta * k * k;
     realN a2pb2 = sqrt(t1 * t1 + 2 * ek2);
     realN a2 = sel((realN)0.5 * (a2pb2 + t1), ek2 / (a2pb2 - t1), t1 < 0);
     realN b2 = sel((realN)0.5 * (a2pb2 - t1), ek2 / (a2pb2 + t1), t1 > 0);

@@ -1,7 +1,8 @@
 """The conformance battery: every registered model, in every configuration its description
 yields (clbrdf.check.configurations: defaults, RGB, each option value, each optional parameter,
-presets), against its float64 reference through the one interface of ``clbrdf.ref``. A model
-added to the registry with a reference is covered here with no test code of its own.
+presets, each parameter at the edges of its range), against its float64 reference through the
+one interface of ``clbrdf.ref``. A model added to the registry with a reference is covered here
+with no test code of its own.
 
 - eval and pdf of the double-precision kernel against the reference on 96 direction pairs
   (cos theta from 0.1 to 1 and a grazing 0.02). Tolerance: 1e-9 relative, or the documented
@@ -30,18 +31,27 @@ from clbrdf.ref import reference
 # models whose kernels tabulate the Smith Lambda (relative tolerance of eval and pdf)
 TABULATED = {"gtr": 1e-3, "sgd": 1e-3, "exppow": 1e-3, "holzschuch_pacanowski": 1e-3}
 CASES = [(n, cid, kw) for n in clbrdf.MODELS for cid, kw in configurations(n)]
+# the albedo comparison leaves out the range edges (ids alpha=lo, ...): the reference's quadrature
+# of a lobe at alpha = 1e-4 or a = 1e8 takes minutes; clbrdf check's albedo check covers them
+ALBEDO_CASES = [c for c in CASES if not c[1].endswith(("=lo", "=hi"))]
 # the default run: each model's defaults (and RGB for eval and pdf); -m slow runs every case
 # (each configuration is a kernel build: 239 cases take about 4 min with cold caches)
 FAST = {"defaults"}
 FAST_EVAL = {"defaults", "rgb"}
 
 
-def tiered(fast):
-    """CASES as parameters: the ids in ``fast`` in the default run, the others slow."""
-    return pytest.mark.parametrize(
-        "name, cid, kw", [c if c[1] in fast else pytest.param(*c, marks=pytest.mark.slow)
-                          for c in CASES], ids=[f"{n}-{c}" for n, c, _ in CASES])
-Z_ALBEDO = float(sps.norm.isf(sidak(1e-3, 3 * len(CASES)) / 2))
+def tiered(fast, cases=CASES, limits=None):
+    """cases as parameters: the ids in ``fast`` in the default run, the others slow; ``limits``
+    maps (name, id) to the reason of a strict xfail."""
+    limits = limits or {}
+
+    def param(n, cid, kw):
+        marks = [] if cid in fast else [pytest.mark.slow]
+        if (n, cid) in limits:
+            marks.append(pytest.mark.xfail(strict=True, reason=limits[n, cid]))
+        return pytest.param(n, cid, kw, marks=marks, id=f"{n}-{cid}")
+    return pytest.mark.parametrize("name, cid, kw", [param(*c) for c in cases])
+Z_ALBEDO = float(sps.norm.isf(sidak(1e-3, 3 * len(ALBEDO_CASES)) / 2))
 
 
 def _dirs(n, seed, zmin):
@@ -89,7 +99,7 @@ def test_kernel_matches_reference(name, cid, kw):
         _close(m.eval(WI, WO), m.eval(WO, WI), 1e-10, "reciprocity")
 
 
-@tiered(FAST)
+@tiered(FAST, ALBEDO_CASES)
 def test_albedo_matches_reference(name, cid, kw):
     m = _model(name, kw)
     ref = reference(m)
@@ -127,7 +137,16 @@ def _perturbed_spread(fn, wo, wi, k=6, seed=3):
     return out
 
 
-@tiered(FAST_EVAL)
+# Single-precision limits at range edges, each an open item with its cause (strict xfail: the
+# entry goes when the case passes). Schlick's F = f0 + (1 - f0)(1 - c)^5 at f0 = 0: c = wi.h
+# carries the float32 rounding of h, so (1 - c)^5 is off by 5 eps / (1 - c) relative (6.5e-5 at
+# 1 - c = 2.4e-3, F = 8e-14); absolute error below 5 eps (1 - c)^4 of F's range [0, 1]. The
+# stable form, 1 - c = |wo - wi|^2 / (4 (1 + c)), needs wo and wi at each Fresnel call.
+SINGLE_LIMITS = {(n, "f0=lo"): "Schlick (1 - c)^5 from a rounded c at f0 = 0"
+                 for n in ("ggx", "beckmann", "exppow", "gtr")}
+
+
+@tiered(FAST_EVAL, limits=SINGLE_LIMITS)
 def test_single_precision_matches_double(name, cid, kw):
     """Single-precision eval and pdf against the double-precision kernel (itself checked against
     the reference above) at the same float32-rounded directions: |single - double| <= 32 float32
@@ -135,7 +154,7 @@ def test_single_precision_matches_double(name, cid, kw):
     directions (the formula's conditioning at the point), + 1e-30: float32 exp(-y) underflows
     below 1.2e-38 and the factors after it (SGD: kap / (pi y^p cos^4 theta_h)) reach 1e8, so values
     below 1e-30 may flush to 0 (SGD returned 0 for 5e-36). Presets and per-channel lobes included,
-    cos theta >= 0.02."""
+    cos theta >= 0.02. The 1e-30 scales with ks (f is linear in it)."""
     s = clbrdf.Model(name, **kw)
     d = clbrdf.Model(name, precision="double", **kw)
     wo = WO.astype(np.float32).astype(float)
@@ -145,7 +164,7 @@ def test_single_precision_matches_double(name, cid, kw):
         fs = np.asarray(getattr(s, what)(wo, wi), float)
         fd = np.asarray(getattr(d, what)(wo, wi), float)
         spread = _perturbed_spread(getattr(d, what), wo, wi)
-        bound = 32 * eps * np.abs(fd) + 4 * spread + 1e-30
+        bound = 32 * eps * np.abs(fd) + 4 * spread + 1e-30 * max(1.0, np.max(kw.get("ks", 1)))
         err = np.abs(fs - fd)
         i = np.unravel_index(int(np.argmax(err / bound)), err.shape)
         assert np.all(err <= bound), (f"{what}: {np.count_nonzero(err > bound)} values off; worst "

@@ -109,3 +109,25 @@ def test_low_smooth_cos_theta_d_is_stable():
     fd = np.asarray(clbrdf.Model("low_smooth", precision="double", **kw).eval(wo, wi))
     big = fd > 1e-3 * fd.max()
     assert np.max(np.abs(fs[big] - fd[big]) / fd[big]) < 2e-3
+
+
+@pytest.mark.parametrize("fresnel, kw", [("dielectric", dict(eta=1e-6)), ("dielectric", dict(eta=0.3)),
+                                         ("conductor", dict(eta=1e-6, k=0.0)),
+                                         ("conductor", dict(eta=1e-6, k=1e-3))])
+def test_fresnel_at_small_index_in_single_precision(fresnel, kw):
+    """F at the small end of the index range, at mirror pairs (h = n, cos theta_d = mu) against
+    the float64 formula: (eta - 1)(eta + 1) + c^2 cancelled (6e-8 for eta^2 - sin^2 = 1e-12 at
+    eta = 1e-6, c = 1) and b = (c (g + c) - 1) / (c (g - c) + 1) lost c^2 - 1: F was 0.943 for
+    0.999996 at normal incidence; eta^2 - sin^2 now takes the better of two forms."""
+    from clbrdf.ref.microfacet import fresnel as ref_fresnel
+    mu = np.concatenate([[1.0, 1 - 2 ** -24, 0.9999, 0.999], np.linspace(0.02, 0.99, 50)])
+    mu = mu.astype(np.float32).astype(float)
+    s = np.sqrt(1 - mu ** 2)
+    wo = np.stack([s, 0 * s, mu], -1).astype(np.float32).astype(float)
+    wi = wo * np.array([-1, -1, 1])
+    m = clbrdf.Model("ggx", alpha=0.5, fresnel=fresnel, **kw)
+    plain = clbrdf.Model("ggx", alpha=0.5, fresnel="one")
+    F = m.eval(wo, wi) / plain.eval(wo, wi)
+    h_dot = np.einsum("ij,ij->i", wi, wi + wo) / np.linalg.norm(wi + wo, axis=-1)
+    want = ref_fresnel(fresnel, h_dot, eta=kw["eta"], k=kw.get("k"))
+    assert np.all(np.abs(F - want) <= 1e-5 * want), np.max(np.abs(F / want - 1))

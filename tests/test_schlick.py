@@ -472,3 +472,19 @@ def test_eq13_average_albedo_is_mean_A():
     for eq, r, p in (("eq12", 0.3, 0.1), ("eq17", 0.05, 0.01)):
         e = R.albedo_avg(1e-8, nodes=16, n_phi=8, directional=eq, r=r, p=p)
         assert abs(e - float(R.A_mean(p))) < 1e-4, (eq, r, p, e, float(R.A_mean(p)))
+
+
+def test_sharp_layer_eq18_in_single_precision():
+    """Eq 18 at r = 1e-7 (the range's low end) in single precision against the float64
+    reference away from the peak: 1 - G(v) G(v') cancelled (G = 1 - 1e-7) and f was 35 % off;
+    now 1 - G G' = (1 - G) + G (1 - G') with 1 - G = r (1 - v) / (r - r v + v)."""
+    from clbrdf.ref import reference
+    m = clbrdf.Model("schlick", r=1e-7)
+    rng = np.random.default_rng(4)
+    z = rng.uniform(0.1, 1, (2, 500))
+    phi = rng.uniform(0, 2 * np.pi, (2, 500))
+    s = np.sqrt(1 - z * z)
+    w = np.stack([s * np.cos(phi), s * np.sin(phi), z], -1).astype(np.float32).astype(float)
+    f = m.eval(w[0], w[1])
+    want = reference(m).eval(w[0], w[1])
+    assert np.max(np.abs(f / want - 1)) < 1e-4

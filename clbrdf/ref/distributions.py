@@ -229,13 +229,14 @@ def cdf_tan2(dist: str, x, alpha: float, shape: float):
 # Bagher et al. 2012 SGD BRDF as in dj_brdf djb::sgd (all parameters per channel)
 
 def bagher_g1(w, theta0, c, k, lam):
-    """dj_brdf sgd__g1: clamp(1 + lambda (1 - exp(c max(0, theta - theta0)^k)), 0, 1)."""
+    """dj_brdf sgd__g1: clamp(1 + lambda (1 - exp(c max(0, theta - theta0)^k)), 0, 1), with
+    1 - exp(e) as -expm1(e): 1 - exp(e) lost 3e-7 of G1 at lam = 1e9 (e about 1e-10)."""
     w = np.asarray(w, float)
     th = np.arccos(np.clip(w[..., 2], -1, 1))
     d = np.maximum(0.0, th - theta0)
     with np.errstate(over="ignore", invalid="ignore"):
         e = c * d ** k
-        g = 1 + lam * (1 - np.exp(e))
+        g = 1 - lam * np.expm1(e)
     g = np.where(np.isnan(g), 0.0, g)      # lam (1 - inf) with lam = 0 cannot occur in the fits
     return np.clip(g, 0.0, 1.0)
 
