@@ -168,3 +168,39 @@ def get_program(device: Device, cfg: Config, precision: str, width: int, **kw) -
                           "use precision='single' or another device")
     source, names = program_source(cfg, precision, width, **kw)
     return _built(device, source, names)
+
+
+def run_functions(headers, source: str, kernel: str, inputs, outputs: int = 1, *,
+                  precision: str = "double", width: int = 1, defines=(), device=None):
+    """Run kernel functions directly, for tests and scripts: build ``headers`` (expanded, e.g.
+    ``("common.h", "special.h")``) and ``source``, whose ``kernel`` takes the tables buffer
+    (``Tables TABLES``) when the program uses tables, then one ``real_t`` buffer per input and per
+    output, and handles ``W`` consecutive values per work-item (``VLOAD``/``VSTORE`` at
+    ``get_global_id(0) * W``). ``inputs``: equal-length 1-D arrays, padded to a multiple of
+    ``width`` with their last value. Returns the ``outputs`` arrays as float64."""
+    import numpy as np
+    import pyopencl as cl
+    from .device import get_device
+    device = device or get_device()
+    seen: set = set()
+    body = [f"#define CLBRDF_DOUBLE {int(precision == 'double')}", f"#define W {width}",
+            *defines, *(expand(h, seen) for h in headers), source]
+    src, names = with_tables("\n".join(body))
+    built = _built(device, src, names)
+    dt = np.float64 if precision == "double" else np.float32
+    n = len(inputs[0])
+    npad = -(-n // width) * width
+    mf = cl.mem_flags
+    bufs = [built.tables] if names else []
+    for v in inputs:
+        h = np.empty(npad, dt)
+        h[:n] = v
+        h[n:] = h[n - 1]
+        bufs.append(cl.Buffer(device.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=h))
+    outs = [np.empty(npad, dt) for _ in range(outputs)]
+    obufs = [cl.Buffer(device.context, mf.WRITE_ONLY, o.nbytes) for o in outs]
+    getattr(built.program, kernel)(device.queue, (npad // width,), None, *bufs, *obufs)
+    for o, b in zip(outs, obufs):
+        cl.enqueue_copy(device.queue, o, b)
+    device.queue.finish()
+    return [o[:n].astype(np.float64) for o in outs]

@@ -77,14 +77,18 @@ def panel_integrals(hmap, pdf, ns, nt, order):
     """Integral of pdf(wi) dw_i over each of ns x nt equal panels of the (s, t) square, by an
     order x order Gauss-Legendre rule per panel. pdf: function of an (..., 3) array of wi."""
     x, w = gl01(order)
-    s = ((np.arange(ns)[:, None] + x) / ns).reshape(-1)
     t = ((np.arange(nt)[:, None] + x) / nt).reshape(-1)
-    S, T = np.meshgrid(s, t, indexing="ij")
-    wi, jac = hmap.points(S, T)
-    v = np.asarray(pdf(wi.reshape(-1, 3)), float).reshape(S.shape) * jac
-    v = np.where(np.isfinite(v), v, np.nan)       # a non-finite pdf poisons the sums visibly
-    v = v.reshape(ns, order, nt, order)
-    return np.einsum("iajb,a,b->ij", v, w, w) / (ns * nt)
+    rows = max(1, (1 << 20) // (order * order * nt))      # panel rows per call: memory stays flat
+    out = np.empty((ns, nt))
+    for i0 in range(0, ns, rows):
+        i1 = min(ns, i0 + rows)
+        s = ((np.arange(i0, i1)[:, None] + x) / ns).reshape(-1)
+        S, T = np.meshgrid(s, t, indexing="ij")
+        wi, jac = hmap.points(S, T)
+        v = np.asarray(pdf(wi.reshape(-1, 3)), float).reshape(S.shape) * jac
+        v = np.where(np.isfinite(v), v, np.nan)   # a non-finite pdf poisons the sums visibly
+        out[i0:i1] = np.einsum("iajb,a,b->ij", v.reshape(i1 - i0, order, nt, order), w, w)
+    return out / (ns * nt)
 
 
 def sidak(alpha, k):

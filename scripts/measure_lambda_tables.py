@@ -48,23 +48,8 @@ __kernel void lam(Tables TABLES, const global real_t *A, const global real_t *S,
 
 
 def kernel_lambda(model, a, s, t):
-    import pyopencl as cl
-    dev = clbrdf.get_device()
-    parts = ["#define CLBRDF_DOUBLE 1", "#define W 1", f"#define LAMBDA {model}_Lambda"]
-    seen: set = set()
-    parts += [build.expand(h, seen) for h in ("common.h", "rng.h", "warp.h", HEADERS[model])]
-    src, names = build.with_tables("\n".join(parts + [SRC]))
-    prog = cl.Program(dev.context, src).build(options=["-cl-std=CL1.2"])
-    mf = cl.mem_flags
-    bufs = [build.tables_buffer(dev, names)]
-    bufs += [cl.Buffer(dev.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(v, np.float64))
-             for v in (a, s, t)]
-    out = np.empty(a.size)
-    ob = cl.Buffer(dev.context, mf.WRITE_ONLY, out.nbytes)
-    prog.lam(dev.queue, (a.size,), None, *bufs, ob)
-    cl.enqueue_copy(dev.queue, out, ob)
-    dev.queue.finish()
-    return out
+    return build.run_functions(("common.h", "rng.h", "warp.h", HEADERS[model]), SRC, "lam",
+                               (a, s, t), defines=[f"#define LAMBDA {model}_Lambda"])[0]
 
 
 def quad_lambda(model, a, s, t):

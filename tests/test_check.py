@@ -140,3 +140,19 @@ def test_battery_over_configurations(name, cid, kw):
     r = check(name, **kw)            # the defaults of clbrdf check, as in the test above
     allowed = {"energy"} | KNOWN_FAILURES.get(name, set()) | KNOWN_DEFECTS.get(name, set())
     assert failing(r) <= allowed, r.table()
+
+
+@pytest.mark.parametrize("scale, passes", [(1.0, True), (0.2, False), (5.0, False)])
+def test_stderr_check_detects_a_wrong_stderr(monkeypatch, scale, passes):
+    """The kernels' estimates with their stderr scaled: 5x too small or 5x too large fails
+    `stderr honest`; the true stderr passes."""
+    import dataclasses
+    C = sys.modules["clbrdf.check"]          # (clbrdf.check is the function)
+    real = C.albedo
+
+    def scaled(*a, **kw):
+        r = real(*a, **kw)
+        return dataclasses.replace(r, stderr=r.stderr * scale)
+    monkeypatch.setattr(C, "albedo", scaled)
+    r = C.check_stderr(clbrdf.Model("ggx", alpha=0.3), seed=0, samples=1 << 14)
+    assert r.passed == passes, (r.statistic, r.threshold)

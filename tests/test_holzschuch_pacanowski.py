@@ -109,29 +109,8 @@ __kernel void lam(Tables TABLES, const global real_t *Sg, const global real_t *P
 
 
 def run_lambda(sigma, p, tan, precision, width):
-    import pyopencl as cl
-    dev = clbrdf.get_device()
-    dt = np.float64 if precision == "double" else np.float32
-    src, tables = build.with_tables("\n".join([
-        f"#define CLBRDF_DOUBLE {int(precision == 'double')}", f"#define W {width}",
-        build.expand("common.h"), build.expand("dist_exppow.h"), SRC]))
-    prog = cl.Program(dev.context, src).build(options=["-cl-std=CL1.2"])
-    n = tan.size
-    npad = -(-n // width) * width
-    mf = cl.mem_flags
-    bufs = [build.tables_buffer(dev, tables)]
-    for v in (sigma, p, tan):
-        h = np.empty(npad, dt)
-        h[:n] = v
-        h[n:] = h[n - 1]
-        bufs.append(cl.Buffer(dev.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=h))
-    outs = [np.empty(npad, dt) for _ in range(2)]
-    ob = [cl.Buffer(dev.context, mf.WRITE_ONLY, o.nbytes) for o in outs]
-    prog.lam(dev.queue, (npad // width,), None, *bufs, *ob)
-    for o, b in zip(outs, ob):
-        cl.enqueue_copy(dev.queue, o, b)
-    dev.queue.finish()
-    return [o[:n].astype(np.float64) for o in outs]
+    return build.run_functions(("common.h", "dist_exppow.h"), SRC, "lam", (sigma, p, tan), 2,
+                               precision=precision, width=width)
 
 
 @pytest.mark.parametrize("width", [1, 16])

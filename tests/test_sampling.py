@@ -24,7 +24,6 @@ import pytest
 from scipy import stats as sps
 
 import clbrdf
-import clbrdf.core as core
 import stats as S
 from clbrdf.ref import microfacet as R
 

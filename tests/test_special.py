@@ -14,7 +14,6 @@ import numpy as np
 import pytest
 from scipy import special as sp
 
-import clbrdf
 from clbrdf import build
 
 SRC = """
@@ -35,27 +34,8 @@ TOL = {"double": 1e-12, "single": 2e-5}
 
 
 def run(a, p, q, precision, width):
-    import pyopencl as cl
-    dev = clbrdf.get_device()
-    dt = np.float64 if precision == "double" else np.float32
-    src = "\n".join([f"#define CLBRDF_DOUBLE {int(precision == 'double')}", f"#define W {width}",
-                     build.expand("common.h"), build.expand("special.h"), SRC])
-    prog = cl.Program(dev.context, src).build(options=["-cl-std=CL1.2"])
-    n = a.size
-    npad = -(-n // width) * width
-    bufs, hosts = [], []
-    for v in (a, p, q):
-        h = np.empty(npad, dt)
-        h[:n] = v
-        h[n:] = v[-1]
-        bufs.append(cl.Buffer(dev.context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=h))
-    outs = [np.empty(npad, dt) for _ in range(3)]
-    obufs = [cl.Buffer(dev.context, cl.mem_flags.READ_WRITE, o.nbytes) for o in outs]
-    prog.ginv(dev.queue, (npad // width,), None, *bufs, *obufs)
-    for o, b in zip(outs, obufs):
-        cl.enqueue_copy(dev.queue, o, b)
-    dev.queue.finish()
-    return [o[:n].astype(np.float64) for o in outs]
+    return build.run_functions(("common.h", "special.h"), SRC, "ginv", (a, p, q), 3,
+                               precision=precision, width=width)
 
 
 def points(precision, n=4000, seed=7):
