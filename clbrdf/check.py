@@ -192,8 +192,8 @@ def check_weight(m, v, perturbations: int = 4) -> Check:
     double twin of the configuration. The kernel computes a weight from the half vector it drew
     and returns wi rounded to its precision, so where f or pdf is ill-conditioned (near-mirror
     lobes at grazing angles) the weight is judged against the range of f cos / pdf over wi and
-    wo moved by their rounding (a few random perturbations of one unit roundoff), widened by the
-    relative tolerance."""
+    wo moved by their rounding (a few random perturbations of one unit roundoff, renormalised,
+    and of each component by one ulp, not), widened by the relative tolerance."""
     up = (v["swi"][:, 2] > 0) & (v["sp"] > 0)
     wi, wo, w = v["swi"][up], v["wo_s"][up], _rowwise(v["sw"][up])
     if not len(wi):
@@ -206,28 +206,49 @@ def check_weight(m, v, perturbations: int = 4) -> Check:
         return f * a[:, 2:3] / np.where(pe > 0, pe, np.inf)[:, None]
     want = ratio(wi, wo)
     lo, hi = want.copy(), want.copy()
-    if m.precision == "single":
-        rng = np.random.default_rng(12345)
-        u = EPS["single"]
-        for _ in range(perturbations):
-            pi_ = wi + u * rng.standard_normal(wi.shape)
-            po = wo + u * rng.standard_normal(wo.shape)
-            pi_ /= np.linalg.norm(pi_, axis=1, keepdims=True)
-            po /= np.linalg.norm(po, axis=1, keepdims=True)
+    rng = np.random.default_rng(12345)
+    dt = np.float32 if m.precision == "single" else np.float64
+
+    def ulp_steps(w):
+        """each component moved by -1, 0 or +1 ulp of the kernel's precision, not renormalised:
+        a renormalised perturbation keeps x = -sqrt(1 - y^2 - z^2) of a grazing near-mirror wi,
+        where the ulp of x carries wo.h (exppow alpha 1e-4, mu 1e-12 in double: one ulp of wi.x
+        moves f cos / pdf by 0.7 %)"""
+        k = rng.integers(-1, 2, w.shape)
+        x = w.astype(dt)
+        return np.where(k > 0, np.nextafter(x, dt(2)), np.where(k < 0, np.nextafter(x, dt(-2)), x)
+                        ).astype(float)
+
+    def renormalised(w):
+        p = w + EPS[m.precision] * rng.standard_normal(w.shape)
+        return p / np.linalg.norm(p, axis=1, keepdims=True)
+    for _ in range(perturbations):
+        for move in (renormalised, ulp_steps):
+            pi_, po = move(wi), move(wo)
             ok = (pi_[:, 2] > 0) & (po[:, 2] > 0)
             r = np.where(ok[:, None], ratio(np.where(ok[:, None], pi_, wi),
                                             np.where(ok[:, None], po, wo)), want)
             lo, hi = np.minimum(lo, r), np.maximum(hi, r)
     tol = WEIGHT_RTOL[m.precision]
-    dist = np.maximum(lo - w, w - hi)                 # <= 0 inside the range
-    rel = np.maximum(dist, 0) / np.maximum(np.abs(want), 1e-30)
-    rel = np.where((w == 0) & (want == 0), 0.0, rel).max(axis=1)
+    # the range widened by its own width (the perturbations sample it), and samples whose
+    # f cos / pdf moves by more than itself within one rounding left out: there no representable
+    # wi reproduces the drawn half vector (float32, wo.z = 1e-6, wi.x = -1: the ulp of x is 200
+    # times the 1 + wi.x that sets wo.h; a weight 12.7 times f cos / pdf at the rounded wi)
+    width = hi - lo
+    scale = np.maximum(np.abs(want), 1e-30)
+    dist = np.maximum(lo - width - w, w - hi - width)          # <= 0 inside the range
+    rel = np.maximum(dist, 0) / scale
+    rel = np.where((w == 0) & (want == 0), 0.0, rel)
+    judged = (width / scale < 1).all(axis=1)
+    rel = np.where(judged, rel.max(axis=1), 0.0)
     frac = float(np.mean(~(rel <= tol)))
     i = int(np.argmax(np.nan_to_num(rel, nan=np.inf)))
+    left = int(np.count_nonzero(~judged))
     return Check("weight = f cos / pdf", frac <= WEIGHT_BAD_FRACTION, frac,
                  f"fraction with rel. error > {tol:g} <= {WEIGHT_BAD_FRACTION:g}",
                  f"rel. error {rel[i]:.3g} (weight {w[i].tolist()} vs {want[i].tolist()}) at "
-                 f"{_where(wo[i], wi[i])}")
+                 f"{_where(wo[i], wi[i])}" + (f"; {left} of {len(rel)} samples ill-conditioned "
+                                              "(not judged)" if left else ""))
 
 
 def _double_twin(m):

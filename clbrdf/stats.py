@@ -119,11 +119,13 @@ def pool_small(observed, expected, min_expected=5.0):
 
 def chi2_gof(observed, expected, min_expected=5.0):
     """Pearson's chi-square of counts against expected counts (which sum to the number of
-    draws), after pooling small bins. Returns (statistic, degrees of freedom, p-value)."""
+    draws), after pooling small bins. Returns (statistic, degrees of freedom, p-value). With
+    one bin left (every draw below the horizon, as for exppow p = 0.1, where the pdf above it
+    integrates to 1e-9) there is nothing to compare: 0 degrees of freedom, p = 1."""
     o, e = pool_small(observed, expected, min_expected)
     stat = float(np.sum((o - e) ** 2 / e))
     dof = o.size - 1
-    return stat, dof, float(sps.chi2.sf(stat, dof))
+    return stat, dof, float(sps.chi2.sf(stat, dof)) if dof > 0 else 1.0
 
 
 def quantile_groups(mass, k):
