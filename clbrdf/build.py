@@ -199,7 +199,7 @@ def run_functions(headers, source: str, kernel: str, inputs, outputs: int = 1, *
         bufs.append(cl.Buffer(device.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=h))
     outs = [np.empty(npad, dt) for _ in range(outputs)]
     obufs = [cl.Buffer(device.context, mf.WRITE_ONLY, o.nbytes) for o in outs]
-    getattr(built.program, kernel)(device.queue, (npad // width,), None, *bufs, *obufs)
+    cl.Kernel(built.program, kernel)(device.queue, (npad // width,), None, *bufs, *obufs)
     for o, b in zip(outs, obufs):
         cl.enqueue_copy(device.queue, o, b)
     device.queue.finish()

@@ -24,6 +24,12 @@ def dot(a, b):
     return np.sum(a * b, axis=-1)
 
 
+def half_cos(wo, wi):
+    """wo.h = wi.h for h = normalize(wi + wo): |wi + wo| / 2 (the dot product with the rounded,
+    normalised sum is off by the sum's rounding at grazing near-mirror pairs, sign included)."""
+    return 0.5 * np.linalg.norm(np.asarray(wi) + np.asarray(wo), axis=-1)
+
+
 def normalize(v):
     n = np.linalg.norm(v, axis=-1, keepdims=True)
     with np.errstate(invalid="ignore", divide="ignore"):

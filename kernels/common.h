@@ -278,20 +278,21 @@ inline realN erfinv_r(realN x)
     return r;
 }
 
-/* wi.h = wo.h for h = normalize(wi + wo): the dot product, or |wi + wo| / 2 (the same for unit
- * directions, > 0) where the rounded dot product is <= 0 (wi ~ -wo at grazing angles). */
-inline realN half_cos(vec3 w, vec3 wo, vec3 wi, vec3 h)
+/* wi.h = wo.h for h = normalize(wi + wo): |wi + wo| / 2 (exact for unit directions, > 0).
+ * Not the dot product with the normalised sum: at grazing near-mirror pairs wi + wo rounds by
+ * 1e-16 in x and y where its z is 2e-12, which tilts h by 5e-5 and moves dot(wo, h) by as much
+ * (sign included: Ward's and Schlick's pdf went negative), while |wi + wo| moves by 1e-9. */
+inline realN half_cos(vec3 wo, vec3 wi)
 {
-    realN c = dot3(w, h);
     vec3 s = add3(wi, wo);
-    return sel(c, (realN)0.5 * sqrt(dot3(s, s)), c <= 0);
+    return (realN)0.5 * sqrt(dot3(s, s));
 }
 
 /* V-cavity masking-shadowing, Cook & Torrance 1982 eq 2: min(1, 2 (n.h) min(n.wi, n.wo) / wo.h),
  * with wo.h from half_cos: a rounded wo.h <= 0 used to give G = 0 where the true G is 1. */
 inline realN vcavity_G(vec3 wo, vec3 wi, vec3 h)
 {
-    return fmin((realN)1, 2 * h.z * fmin(wi.z, wo.z) / half_cos(wo, wo, wi, h));
+    return fmin((realN)1, 2 * h.z * fmin(wi.z, wo.z) / half_cos(wo, wi));
 }
 
 #endif

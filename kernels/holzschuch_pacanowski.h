@@ -54,9 +54,9 @@ inline realN hp_diffraction_scale(const Params *p, int c, realN *albedo)
 #endif
 }
 
-/* f with the half vector h given (the sampler passes the h it drew: recomputing it from a
- * rounded wi misses a near-mirror lobe at grazing angles in single precision). */
-inline spec hp_eval_h(const Params *p, vec3 wo, vec3 wi, vec3 h)
+/* f with the half vector h and c = wi.h given (the sampler passes the h it drew: recomputing
+ * it from a rounded wi misses a near-mirror lobe at grazing angles in single precision). */
+inline spec hp_eval_h(const Params *p, vec3 wo, vec3 wi, vec3 h, realN ch)
 {
     Microfacet m = MICROFACET(p->sigma, p->sigma, p->p, p);
     realN G = 1 / ((1 + exppow_Lambda(m, wi)) * (1 + exppow_Lambda(m, wo)));   /* eq 6-7 */
@@ -70,7 +70,7 @@ inline spec hp_eval_h(const Params *p, vec3 wo, vec3 wi, vec3 h)
         realN alb;
         realN kw = hp_diffraction_scale(p, c, &alb);
         realN S = 1 / sqr(1 + dp2 / sqr(L * p->a));                              /* eq 25 */
-        realN F = fresnel_schlick(p->f0[c], dot3(wi, h));                        /* eq 27 */
+        realN F = fresnel_schlick(p->f0[c], ch);                                 /* eq 27 */
         realN v = p->kd[c] * INV_PI_R + G * (p->ks[c] * F * refl + kw * S);
         f.c[c] = sel((realN)0, v, ok);
     }
@@ -79,7 +79,7 @@ inline spec hp_eval_h(const Params *p, vec3 wo, vec3 wi, vec3 h)
 
 inline spec holzschuch_pacanowski_eval(const Params *p, vec3 wo, vec3 wi)
 {
-    return hp_eval_h(p, wo, wi, normalize3(add3(wi, wo)));
+    return hp_eval_h(p, wo, wi, normalize3(add3(wi, wo)), half_cos(wo, wi));
 }
 
 /* Probabilities of the reflection lobe (*ps) and of the cosine lobes (returned). */
@@ -98,11 +98,10 @@ inline realN hp_lobe_probs(const Params *p, realN *ps)
     return sel((w + d) / t, (realN)0, t <= 0);
 }
 
-inline realN hp_pdf_h(const Params *p, vec3 wo, vec3 wi, vec3 h)
+inline realN hp_pdf_h(const Params *p, vec3 wo, vec3 wi, vec3 h, realN oh)
 {
     Microfacet m = MICROFACET(p->sigma, p->sigma, p->p, p);
     realN ps, pc = hp_lobe_probs(p, &ps);
-    realN oh = dot3(wo, h);
     realN lobe = sel((realN)0, exppow_D(m, h) * h.z / (4 * oh), oh > 0);
     realN pdf = ps * lobe + pc * wi.z * INV_PI_R;
     return sel((realN)0, pdf, (wi.z > 0) & (wo.z > 0));
@@ -110,7 +109,7 @@ inline realN hp_pdf_h(const Params *p, vec3 wo, vec3 wi, vec3 h)
 
 inline realN holzschuch_pacanowski_pdf(const Params *p, vec3 wo, vec3 wi)
 {
-    return hp_pdf_h(p, wo, wi, normalize3(add3(wi, wo)));
+    return hp_pdf_h(p, wo, wi, normalize3(add3(wi, wo)), half_cos(wo, wi));
 }
 
 inline BSample holzschuch_pacanowski_sample(const Params *p, vec3 wo, rand4 u)
@@ -124,9 +123,10 @@ inline BSample holzschuch_pacanowski_sample(const Params *p, vec3 wo, rand4 u)
     maskN refl = u.u2 < ps;
     s.wi = select3(wc, reflect3(wo, h), refl);
     vec3 hh = select3(normalize3(add3(wc, wo)), h, refl);   /* the drawn h for a lobe sample */
-    s.pdf = hp_pdf_h(p, wo, s.wi, hh);
+    realN ch = sel(half_cos(wo, wc), dot3(wo, h), refl);
+    s.pdf = hp_pdf_h(p, wo, s.wi, hh, ch);
     maskN ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
-    s.weight = spec_scale(hp_eval_h(p, wo, s.wi, hh), s.wi.z / s.pdf);
+    s.weight = spec_scale(hp_eval_h(p, wo, s.wi, hh, ch), s.wi.z / s.pdf);
     return bsample_where(s, ok);
 }
 

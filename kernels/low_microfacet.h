@@ -77,7 +77,7 @@ inline spec low_microfacet_eval(const Params *p, vec3 wo, vec3 wi)
     vec3 h = normalize3(H);
     realN x = low_one_minus_cos_h(H);
     realN lobe = exp(-p->c * log1p(p->b * x))                     /* S / a (eq 11) */
-                 * low_fresnel(p->eta, half_cos(wi, wo, wi, h)) * vcavity_G(wo, wi, h)
+                 * low_fresnel(p->eta, half_cos(wo, wi)) * vcavity_G(wo, wi, h)
                  / (PI_R * wi.z * wo.z);                          /* eq 15 */
     maskN ok = (wi.z > 0) & (wo.z > 0);
     spec f;
@@ -91,11 +91,11 @@ inline spec low_microfacet_eval(const Params *p, vec3 wo, vec3 wi)
     return f;
 }
 
-/* Density of the half-vector sampler per unit solid angle of wi (eq 23, 28). */
+/* Density of the half-vector sampler per unit solid angle of wi (eq 23, 28), H = wi + wo. */
 inline realN low_mf_lobe_pdf(const Params *p, vec3 wo, vec3 H)
 {
     realN x = low_one_minus_cos_h(H);
-    realN oh = dot3(wo, normalize3(H));
+    realN oh = (realN)0.5 * sqrt(dot3(H, H));                    /* wo.h, as half_cos */
     return exp(-p->c * log1p(p->b * x)) * low_h_norm_inv(p->b, p->c) / (4 * oh);
 }
 

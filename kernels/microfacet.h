@@ -116,7 +116,7 @@ inline spec microfacet_eval(const Params *p, vec3 wo, vec3 wi)
     Microfacet m = mf_distribution(p);
     vec3 h = normalize3(add3(wi, wo));
     realN lobe = MF(D)(m, h) * mf_G(m, wo, wi, h) / (4 * wi.z * wo.z);
-    realN c_d = half_cos(wi, wo, wi, h);
+    realN c_d = half_cos(wo, wi);
     maskN ok = (wi.z > 0) & (wo.z > 0);
     spec f;
     for (int c = 0; c < CHANNELS; ++c) {
@@ -129,13 +129,13 @@ inline spec microfacet_eval(const Params *p, vec3 wo, vec3 wi)
     return f;
 }
 
-/* Density of the specular lobe's sampler, per unit solid angle of wi. */
-inline realN mf_lobe_pdf(Microfacet m, vec3 wo, vec3 h)
+/* Density of the specular lobe's sampler, per unit solid angle of wi; oh = wo.h. */
+inline realN mf_lobe_pdf(Microfacet m, vec3 wo, vec3 h, realN oh)
 {
 #if MF_SAMPLER == SAMPLER_VNDF
     return mf_G1(m, wo) * MF(D)(m, h) / (4 * wo.z);
 #else
-    return MF(D)(m, h) * h.z / (4 * dot3(wo, h));
+    return MF(D)(m, h) * h.z / (4 * oh);
 #endif
 }
 
@@ -143,7 +143,7 @@ inline realN microfacet_pdf(const Params *p, vec3 wo, vec3 wi)
 {
     Microfacet m = mf_distribution(p);
     vec3 h = normalize3(add3(wi, wo));
-    realN pdf = mf_lobe_pdf(m, wo, h);
+    realN pdf = mf_lobe_pdf(m, wo, h, half_cos(wo, wi));
 #if MF_DIFFUSE
     realN pd = mf_diffuse_prob(p, wo);
     pdf = cosine_mixture_pdf(pd, wi, pdf);
@@ -172,24 +172,24 @@ inline BSample microfacet_sample(const Params *p, vec3 wo, rand4 u)
     vec3 wc = square_to_cosine_hemisphere(u.u0, u.u1);
     s.wi = select3(s.wi, wc, diffuse);
     vec3 hh = select3(h, normalize3(add3(wc, wo)), diffuse);
-    s.pdf = cosine_mixture_pdf(pd, s.wi, mf_lobe_pdf(m, wo, hh));
+    realN c_h = sel(dot3(wo, h), half_cos(wo, wc), diffuse);
+    s.pdf = cosine_mixture_pdf(pd, s.wi, mf_lobe_pdf(m, wo, hh, c_h));
     ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
     /* f cos_i = F D G / (4 cos_o) + kd cos_i / pi */
     realN lobe = MF(D)(m, hh) * mf_G(m, wo, s.wi, hh) / (4 * wo.z);
-    realN c_h = dot3(s.wi, hh);
     realN inv = 1 / s.pdf;
     for (int c = 0; c < CHANNELS; ++c)
         s.weight.c[c] = (mf_fresnel(p, c_h, c) * lobe + p->kd[c] * INV_PI_R * s.wi.z) * inv;
 #else
     /* f cos_i / pdf with D cancelled: vndf F G / G1(wo); ndf F G (wo.h) / (cos_o cos_h) */
     realN G = mf_G(m, wo, s.wi, h);
-    s.pdf = mf_lobe_pdf(m, wo, h);
+    realN c_d = dot3(wo, h);
+    s.pdf = mf_lobe_pdf(m, wo, h, c_d);
 #if MF_SAMPLER == SAMPLER_VNDF
     realN g = G * (1 + MF(Lambda)(m, wo));
 #else
-    realN g = G * dot3(wo, h) / (wo.z * h.z);
+    realN g = G * c_d / (wo.z * h.z);
 #endif
-    realN c_d = dot3(wo, h);
     for (int c = 0; c < CHANNELS; ++c)
         s.weight.c[c] = mf_fresnel(p, c_d, c) * g;
 #endif

@@ -124,10 +124,9 @@ inline realN sch_D(SchLayer L, int aniso, vec3 wo, vec3 wi, vec3 h)
 #endif
 }
 
-/* R (eq 9) with a given half vector h (unit, h = normalize(wi + wo)) */
-inline spec sch_eval_h(const Params *p, vec3 wo, vec3 wi, vec3 h)
+/* R (eq 9) with a given half vector h (unit, h = normalize(wi + wo)) and u = wo.h */
+inline spec sch_eval_h(const Params *p, vec3 wo, vec3 wi, vec3 h, realN u)
 {
-    realN u = dot3(wo, h);
     realN d1 = sch_D(sch_layer1(p), SCH_ANISO1, wo, wi, h);
 #if SCH_DOUBLE
     realN d2 = sch_D(sch_layer2(p), SCH_ANISO2, wo, wi, h);
@@ -147,7 +146,7 @@ inline spec sch_eval_h(const Params *p, vec3 wo, vec3 wi, vec3 h)
 
 inline spec schlick_eval(const Params *p, vec3 wo, vec3 wi)
 {
-    return sch_eval_h(p, wo, wi, normalize3(add3(wi, wo)));
+    return sch_eval_h(p, wo, wi, normalize3(add3(wi, wo)), half_cos(wo, wi));
 }
 
 /* ---- sampling ---- */
@@ -165,10 +164,10 @@ inline realN sch_agm(realN p)
 }
 
 /* Solid-angle density of wi for the half-vector lobe of one layer: t Z A / (pi <A> 4 wo.h) */
-inline realN sch_lobe_pdf(SchLayer L, int aniso, vec3 wo, vec3 h)
+inline realN sch_lobe_pdf(SchLayer L, int aniso, vec3 wo, vec3 h, realN u)
 {
     realN a_rel = aniso ? sch_A(L, h, aniso) * sch_agm(L.p) * rsqrt(L.p) : (realN)1;
-    return h.z * sch_Z(L.r, h) * a_rel * (realN)(0.25 * INV_PI_R) / dot3(wo, h);
+    return h.z * sch_Z(L.r, h) * a_rel * (realN)(0.25 * INV_PI_R) / u;
 }
 
 /* probability of the cosine lobe within a layer */
@@ -201,9 +200,9 @@ inline realN sch_layer_prob(const Params *p, realN v)
 #endif
 }
 
-inline realN sch_layer_mix_pdf(SchLayer L, int aniso, vec3 wo, vec3 wi, vec3 h)
+inline realN sch_layer_mix_pdf(SchLayer L, int aniso, vec3 wo, vec3 wi, vec3 h, realN u)
 {
-    realN lobe = sch_lobe_pdf(L, aniso, wo, h);
+    realN lobe = sch_lobe_pdf(L, aniso, wo, h, u);
 #if SCH_DIFFUSE
     realN pd = sch_diffuse_prob(L, wo.z);
     lobe = cosine_mixture_pdf(pd, wi, lobe);
@@ -211,19 +210,19 @@ inline realN sch_layer_mix_pdf(SchLayer L, int aniso, vec3 wo, vec3 wi, vec3 h)
     return lobe;
 }
 
-inline realN sch_pdf_h(const Params *p, vec3 wo, vec3 wi, vec3 h)
+inline realN sch_pdf_h(const Params *p, vec3 wo, vec3 wi, vec3 h, realN u)
 {
-    realN pdf = sch_layer_mix_pdf(sch_layer1(p), SCH_ANISO1, wo, wi, h);
+    realN pdf = sch_layer_mix_pdf(sch_layer1(p), SCH_ANISO1, wo, wi, h, u);
 #if SCH_DOUBLE
     realN P1 = sch_layer_prob(p, wo.z);
-    pdf = P1 * pdf + (1 - P1) * sch_layer_mix_pdf(sch_layer2(p), SCH_ANISO2, wo, wi, h);
+    pdf = P1 * pdf + (1 - P1) * sch_layer_mix_pdf(sch_layer2(p), SCH_ANISO2, wo, wi, h, u);
 #endif
     return sel((realN)0, pdf, (wi.z > 0) & (wo.z > 0));
 }
 
 inline realN schlick_pdf(const Params *p, vec3 wo, vec3 wi)
 {
-    return sch_pdf_h(p, wo, wi, normalize3(add3(wi, wo)));
+    return sch_pdf_h(p, wo, wi, normalize3(add3(wi, wo)), half_cos(wo, wi));
 }
 
 /* Azimuth of h with density A(phi) / (2 pi <A>): (cos phi, sin phi) relative to the scratch.
@@ -298,15 +297,17 @@ inline BSample schlick_sample(const Params *p, vec3 wo, rand4 u)
 #endif
     BSample s;
     s.wi = reflect3(wo, h);
+    realN uh = dot3(wo, h);
 #if SCH_DIFFUSE
     maskN diffuse = ud < pd;
     vec3 wc = square_to_cosine_hemisphere(u.u0, u.u1);
     s.wi = select3(s.wi, wc, diffuse);
     h = select3(h, normalize3(add3(wc, wo)), diffuse);
+    uh = sel(uh, half_cos(wo, wc), diffuse);
 #endif
-    s.pdf = sch_pdf_h(p, wo, s.wi, h);
+    s.pdf = sch_pdf_h(p, wo, s.wi, h, uh);
     maskN ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
-    s.weight = spec_scale(sch_eval_h(p, wo, s.wi, h), s.wi.z / s.pdf);
+    s.weight = spec_scale(sch_eval_h(p, wo, s.wi, h, uh), s.wi.z / s.pdf);
     return bsample_where(s, ok);
 }
 

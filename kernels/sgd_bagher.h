@@ -56,11 +56,12 @@ inline realN sgdb_kap(const Params *P, int ch, realN inv_kap)
 #endif
 }
 
-/* f at the half vector h of (wo, wi): the sampler passes the h it drew (normalize(wi + wo) of a
- * rounded wi misses a sharp lobe at grazing angles in single precision). */
-inline spec sgdb_eval_h(const Params *P, vec3 wo, vec3 wi, vec3 h)
+/* f at the half vector h of (wo, wi) with c = wi.h: the sampler passes the h it drew
+ * (normalize(wi + wo) of a rounded wi misses a sharp lobe at grazing angles in single
+ * precision). */
+inline spec sgdb_eval_h(const Params *P, vec3 wo, vec3 wi, vec3 h, realN c)
 {
-    realN cd = clamp(dot3(wi, h), (realN)0, (realN)1);
+    realN cd = clamp(c, (realN)0, (realN)1);
     maskN ok = (wi.z > 0) & (wo.z > 0);
     spec f;
     for (int ch = 0; ch < CHANNELS; ++ch) {
@@ -80,7 +81,7 @@ inline spec sgdb_eval_h(const Params *P, vec3 wo, vec3 wi, vec3 h)
 
 inline spec sgd_bagher_eval(const Params *P, vec3 wo, vec3 wi)
 {
-    return sgdb_eval_h(P, wo, wi, normalize3(add3(wi, wo)));
+    return sgdb_eval_h(P, wo, wi, normalize3(add3(wi, wo)), half_cos(wo, wi));
 }
 
 /* Lobe weights of the sampling mixture; inv_kap[ch] = alpha Gamma(1-p, alpha). Returns the sum. */
@@ -97,14 +98,14 @@ inline realN sgdb_weights(const Params *P, vec3 wo, const realN *inv_kap, realN 
     return tot;
 }
 
-/* Mixture density of wi (solid angle) with h its half vector; the cosine density where every
- * weight is 0. */
-inline realN sgdb_pdf_h(const Params *P, vec3 wo, vec3 wi, vec3 h, const realN *inv_kap)
+/* Mixture density of wi (solid angle) with h its half vector and c = wo.h; the cosine density
+ * where every weight is 0. */
+inline realN sgdb_pdf_h(const Params *P, vec3 wo, vec3 wi, vec3 h, realN c, const realN *inv_kap)
 {
     realN wd[CHANNELS], ws[CHANNELS];
     realN tot = sgdb_weights(P, wo, inv_kap, wd, ws);
     realN cos_pdf = fmax(wi.z, (realN)0) * INV_PI_R;
-    realN spec_geo = h.z / (4 * dot3(wo, h));
+    realN spec_geo = h.z / (4 * c);
     realN acc = 0;
     for (int ch = 0; ch < CHANNELS; ++ch)
         acc += wd[ch] * cos_pdf
@@ -118,7 +119,7 @@ inline realN sgd_bagher_pdf(const Params *P, vec3 wo, vec3 wi)
     realN inv_kap[CHANNELS];
     for (int ch = 0; ch < CHANNELS; ++ch)
         inv_kap[ch] = sgdb_inv_kap(P, ch);
-    return sgdb_pdf_h(P, wo, wi, normalize3(add3(wi, wo)), inv_kap);
+    return sgdb_pdf_h(P, wo, wi, normalize3(add3(wi, wo)), half_cos(wo, wi), inv_kap);
 }
 
 inline BSample sgd_bagher_sample(const Params *P, vec3 wo, rand4 u)
@@ -148,9 +149,10 @@ inline BSample sgd_bagher_sample(const Params *P, vec3 wo, rand4 u)
     s.wi = select3(reflect3(wo, h), wc, diffuse);
     /* weight and pdf at the drawn h for a lobe sample, at normalize(wc + wo) for a cosine one */
     vec3 hh = select3(h, normalize3(add3(wc, wo)), diffuse);
-    s.pdf = sgdb_pdf_h(P, wo, s.wi, hh, inv_kap);
+    realN ch = sel(dot3(wo, h), half_cos(wo, wc), diffuse);
+    s.pdf = sgdb_pdf_h(P, wo, s.wi, hh, ch, inv_kap);
     maskN ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
-    s.weight = spec_scale(sgdb_eval_h(P, wo, s.wi, hh), s.wi.z / s.pdf);
+    s.weight = spec_scale(sgdb_eval_h(P, wo, s.wi, hh, ch), s.wi.z / s.pdf);
     return bsample_where(s, ok);
 }
 

@@ -28,13 +28,12 @@ inline realN ward_exponent(const Params *p, vec3 s)
     return (sqr(s.x / p->alpha_x) + sqr(s.y / p->alpha_y)) / sqr(s.z);
 }
 
-/* Density of the lobe sampler per unit solid angle of wi, from s = wi + wo. */
-inline realN ward_lobe_pdf(const Params *p, vec3 wo, vec3 s)
+/* Density of the lobe sampler per unit solid angle of wi, from s (a positive multiple of h)
+ * and oh = wo.h. */
+inline realN ward_lobe_pdf(const Params *p, vec3 s, realN oh)
 {
-    realN inv = rsqrt(dot3(s, s));
-    vec3 h = scale3(s, inv);
-    return exp(-ward_exponent(p, s)) / (4 * PI_R * p->alpha_x * p->alpha_y * h.z * h.z * h.z
-                                        * dot3(wo, h));
+    realN hz = s.z * rsqrt(dot3(s, s));
+    return exp(-ward_exponent(p, s)) / (4 * PI_R * p->alpha_x * p->alpha_y * hz * hz * hz * oh);
 }
 
 inline realN ward_diffuse_prob(const Params *p)
@@ -70,7 +69,7 @@ inline spec ward_eval(const Params *p, vec3 wo, vec3 wi)
 
 inline realN ward_pdf(const Params *p, vec3 wo, vec3 wi)
 {
-    realN pdf = ward_lobe_pdf(p, wo, add3(wi, wo));
+    realN pdf = ward_lobe_pdf(p, add3(wi, wo), half_cos(wo, wi));
 #if WARD_DIFFUSE
     realN pd = ward_diffuse_prob(p);
     pdf = cosine_mixture_pdf(pd, wi, pdf);
@@ -93,7 +92,7 @@ inline BSample ward_sample(const Params *p, vec3 wo, rand4 u)
     vec3 wc = square_to_cosine_hemisphere(u.u0, u.u1);
     s.wi = select3(s.wi, wc, diffuse);
     vec3 sh = select3(h, add3(wc, wo), diffuse);
-    s.pdf = cosine_mixture_pdf(pd, s.wi, ward_lobe_pdf(p, wo, sh));
+    s.pdf = cosine_mixture_pdf(pd, s.wi, ward_lobe_pdf(p, sh, sel(oh, half_cos(wo, wc), diffuse)));
     maskN ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
     realN lobe = exp(-ward_exponent(p, sh)) * sqrt(s.wi.z / wo.z)
                  / (4 * PI_R * p->alpha_x * p->alpha_y);
@@ -102,7 +101,7 @@ inline BSample ward_sample(const Params *p, vec3 wo, rand4 u)
         s.weight.c[ch] = (p->ks[ch] * lobe + p->kd[ch] * INV_PI_R * s.wi.z) * inv;
 #else
     maskN ok = (s.wi.z > 0) & (wo.z > 0) & (oh > 0);
-    s.pdf = ward_lobe_pdf(p, wo, h);
+    s.pdf = ward_lobe_pdf(p, h, oh);
     realN g = oh * h.z * h.z * h.z * sqrt(s.wi.z / wo.z);
     for (int ch = 0; ch < CHANNELS; ++ch)
         s.weight.c[ch] = p->ks[ch] * g;

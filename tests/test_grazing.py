@@ -131,3 +131,29 @@ def test_fresnel_at_small_index_in_single_precision(fresnel, kw):
     h_dot = np.einsum("ij,ij->i", wi, wi + wo) / np.linalg.norm(wi + wo, axis=-1)
     want = ref_fresnel(fresnel, h_dot, eta=kw["eta"], k=kw.get("k"))
     assert np.all(np.abs(F - want) <= 1e-5 * want), np.max(np.abs(F / want - 1))
+
+
+@pytest.mark.parametrize("name, kw", [("ward", dict(alpha_x=1e-3)), ("schlick", dict(p=0.5)),
+                                      ("ggx", dict(alpha_x=1e-3, alpha_y=0.2, sampler="ndf")),
+                                      ("sgd_bagher", {}), ("holzschuch_pacanowski", {})])
+@pytest.mark.parametrize("precision", ["single", "double"])
+def test_pdf_at_grazing_mirror_pairs_with_rounded_sum(name, kw, precision):
+    """wo at azimuth phi, wi at phi + pi (cos and sin rounded: wi + wo is 1e-16 in x, y where
+    its z is 2 mu): pdf and eval non-negative, and in double equal to the float64 reference at
+    the same pairs, wo.h taken as |wi + wo| / 2 in both. As the dot product with the normalised sum (both did that) Ward's and
+    Schlick's pdf were -5e7 and -3e-8 at mu = 1e-12, and positive pdfs off by factors of 1e7."""
+    from clbrdf.ref import reference
+    m = clbrdf.Model(name, precision=precision, **kw)
+    ref = reference(clbrdf.Model(name, precision="double", **kw))
+    mu = np.array([MU_MIN[precision], 1e-4])
+    phi = np.array([0.4, 1.3, 2.2, 3.5])
+    M, P = np.meshgrid(mu, phi, indexing="ij")
+    s = np.sqrt(1 - M ** 2)
+    wo = np.stack([s * np.cos(P), s * np.sin(P), M], -1).reshape(-1, 3)
+    wi = np.stack([s * np.cos(P + np.pi), s * np.sin(P + np.pi), M], -1).reshape(-1, 3)
+    for what in ("pdf", "eval"):
+        got = np.asarray(getattr(m, what)(wo, wi), float)
+        assert np.all(got >= 0), (what, got.min())
+        if precision == "double":      # (float32 rounds h by more than these lobes' widths)
+            want = np.asarray(getattr(ref, what)(wo, wi), float)
+            assert np.allclose(got, want, rtol=1e-6, atol=0), (what, got, want)

@@ -25,6 +25,8 @@ import math
 import numpy as np
 from scipy import integrate, optimize, special
 
+from ..quadrature import half_cos
+
 INV_PI = 1 / np.pi
 
 
@@ -335,7 +337,7 @@ def pdf(model, wo, wi, *, alpha, **params):
     wi, wo = np.asarray(wi, float), np.asarray(wo, float)
     ok = (wi[..., 2] > 0) & (wo[..., 2] > 0)
     h = _unit(wi + wo)
-    geo = h[..., 2] / (4 * np.sum(wo * h, -1))
+    geo = h[..., 2] / (4 * half_cos(wo, wi))
     if model == "sgd_bagher":
         alpha = np.atleast_1d(np.asarray(alpha, float))
         params = dict(params)

@@ -33,7 +33,7 @@ import numpy as np
 from scipy import integrate, special
 from scipy.interpolate import CubicSpline
 
-from ..quadrature import INV_PI, cosine_map, dot, hemisphere_integral, normalize, reflect
+from ..quadrature import INV_PI, cosine_map, dot, half_cos, hemisphere_integral, normalize, reflect
 
 WAVELENGTHS = (0.645, 0.526, 0.444)     # um, R G B (paper section 5.5)
 
@@ -215,7 +215,7 @@ def pdf(wo, wi, *, kd=0.0, ks=1.0, kw=0.0, a=1.0, sigma=0.1, p=1.0, channels=1, 
     Ps, Pw, Pd = lobe_weights(kd, ks, kw, a, channels, lam, energy)
     h = normalize(wi + wo)
     with np.errstate(divide="ignore", invalid="ignore"):
-        ph = D(h, sigma, p) * h[..., 2] / (4 * np.abs(dot(wo, h)))
+        ph = D(h, sigma, p) * h[..., 2] / (4 * half_cos(wo, wi))
     ph = np.nan_to_num(ph, nan=0.0, posinf=0.0)
     return np.where(valid, Ps * ph + (Pw + Pd) * wi[..., 2] * INV_PI, 0.0)
 

@@ -23,7 +23,7 @@ import numpy as np
 from scipy import special
 
 from ..quadrature import (INV_PI, _rule, _vec, adaptive_gl1, cosine_map, direction, dot,  # noqa: F401 (spherical: re-exported)
-                          hemisphere_integral, normalize, reflect, spherical)
+                          half_cos, hemisphere_integral, normalize, reflect, spherical)
 
 MODELS = ("lambert", "beckmann", "ggx")
 DISTRIBUTIONS = ("beckmann", "ggx")
@@ -97,11 +97,11 @@ def G(masking, dist, wo, wi, h, alpha_x, alpha_y):
     if masking == "none":
         return np.ones(shape)
     if masking == "vcavity":                              # Cook-Torrance 1982
-        nh, c = h[..., 2], dot(wo, h)
+        nh, c = h[..., 2], half_cos(wo, wi)
         with np.errstate(divide="ignore", invalid="ignore"):
             g = np.minimum(1, np.minimum(2 * nh * wo[..., 2] / c, 2 * nh * wi[..., 2] / c))
         return np.where(c > 0, g, 0.0)
-    side = (dot(wi, h) > 0) & (dot(wo, h) > 0)
+    side = half_cos(wo, wi) > 0            # wo.h = wi.h for the half vector h of (wo, wi)
     li = Lambda(dist, wi, alpha_x, alpha_y)
     lo = Lambda(dist, wo, alpha_x, alpha_y)
     if masking == "separable":
@@ -220,7 +220,7 @@ def pdf_ndf(cfg, wo, wi):
     """Normals sampled with density D(h) (n.h), reflected: D(h) h.z / (4 |wo.h|)."""
     h = normalize(wi + wo)
     with np.errstate(divide="ignore", invalid="ignore"):
-        p = D(cfg["dist"], h, cfg["ax"], cfg["ay"]) * h[..., 2] / (4 * np.abs(dot(wo, h)))
+        p = D(cfg["dist"], h, cfg["ax"], cfg["ay"]) * h[..., 2] / (4 * half_cos(wo, wi))
     return np.where((wi[..., 2] > 0) & (wo[..., 2] > 0), p, 0.0)
 
 
@@ -228,7 +228,7 @@ def pdf_vndf(cfg, wo, wi):
     """Visible normals G1(wo) max(0, wo.h) D(h) / cos_o, reflected: / (4 wo.h)."""
     h = normalize(wi + wo)
     co = wo[..., 2]
-    valid = (wi[..., 2] > 0) & (co > 0) & (dot(wo, h) > 0)
+    valid = (wi[..., 2] > 0) & (co > 0) & (half_cos(wo, wi) > 0)
     with np.errstate(divide="ignore", invalid="ignore"):
         p = G1(cfg["dist"], wo, cfg["ax"], cfg["ay"]) * D(cfg["dist"], h, cfg["ax"], cfg["ay"]) / (4 * co)
     return np.where(valid, p, 0.0)
@@ -432,7 +432,7 @@ class MicrofacetReference(Reference):
             return np.ones(np.broadcast_shapes(wo.shape, wi.shape)[:-1])
         if masking == "vcavity":
             return G("vcavity", None, wo, wi, h, 1.0, 1.0)
-        side = (dot(wi, h) > 0) & (dot(wo, h) > 0)
+        side = half_cos(wo, wi) > 0
         li, lo = self.Lambda(wi), self.Lambda(wo)
         g = 1 / ((1 + li) * (1 + lo)) if masking == "separable" else 1 / (1 + li + lo)
         return np.where(side, g, 0.0)
@@ -446,16 +446,16 @@ class MicrofacetReference(Reference):
         valid = (ci > 0) & (co > 0)
         h = normalize(wi + wo)
         with np.errstate(divide="ignore", invalid="ignore"):
-            f = self.F(dot(wi, h), v) * self.D(h) * self.G(wo, wi, h) / (4 * ci * co)
+            f = self.F(half_cos(wo, wi), v) * self.D(h) * self.G(wo, wi, h) / (4 * ci * co)
         return np.where(valid, f + v.get("kd", 0.0) * INV_PI, 0.0)
 
     def lobe_pdf(self, wo, wi):
         h = normalize(wi + wo)
         with np.errstate(divide="ignore", invalid="ignore"):
             if self.options["sampler"] == "vndf":
-                p = np.where(dot(wo, h) > 0, self.G1(wo) * self.D(h) / (4 * wo[..., 2]), 0.0)
+                p = np.where(half_cos(wo, wi) > 0, self.G1(wo) * self.D(h) / (4 * wo[..., 2]), 0.0)
             else:
-                p = self.D(h) * h[..., 2] / (4 * np.abs(dot(wo, h)))
+                p = self.D(h) * h[..., 2] / (4 * half_cos(wo, wi))
         return p
 
     def pdf(self, wo, wi):

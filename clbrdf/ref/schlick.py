@@ -29,7 +29,7 @@ v' is 2/3). DOUBLE chooses layer 1 with probability sum_c S_c(v) / (sum_c S_c(v)
 import numpy as np
 from scipy import special
 
-from ..quadrature import hemisphere_integral
+from ..quadrature import half_cos, hemisphere_integral
 
 INV_PI = 1 / np.pi
 MATERIALS = ("single", "double")
@@ -120,7 +120,7 @@ def eval(wo, wi, channels=1, **params):
     valid = (wi[..., 2] > 0) & (wo[..., 2] > 0)
     with np.errstate(divide="ignore", invalid="ignore"):
         h = _unit(wi + wo)
-        u = np.sum(wo * h, -1)
+        u = half_cos(wo, wi)
         layers = _layers(cfg)
         ds = [directional(cfg["directional"], r, p, psi, wo, wi, h) for (_, r, p, psi) in layers]
         if channels == 3:
@@ -170,7 +170,7 @@ def pdf(wo, wi, channels=1, **params):
     v = wo[..., 2] * np.ones(np.broadcast_shapes(wo.shape, wi.shape)[:-1])
     with np.errstate(divide="ignore", invalid="ignore"):
         h = _unit(wi + wo)
-        woh = np.sum(wo * h, -1)
+        woh = half_cos(wo, wi)
         cosine = wi[..., 2] * INV_PI
         P1 = layer_prob(cfg, v, channels)
         out = 0

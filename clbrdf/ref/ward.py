@@ -4,7 +4,7 @@ of a Beckmann distribution with the same alpha_x, alpha_y (its density D h_z / (
 sampler's, Walter eq 9), the Lambertian term exactly (kd)."""
 import numpy as np
 
-from ..quadrature import INV_PI, direction, hemisphere_integral
+from ..quadrature import INV_PI, direction, half_cos, hemisphere_integral
 from . import Reference
 from .microfacet import halfvector_map
 
@@ -32,7 +32,7 @@ class WardReference(Reference):
         ax, ay = float(self.params["alpha_x"]), float(self.params["alpha_y"])
         e, h = _parts(wo, wi, ax, ay)
         with np.errstate(invalid="ignore", divide="ignore"):
-            lobe = e / (np.pi * ax * ay * h[..., 2] ** 3) / (4 * np.sum(wo * h, -1))
+            lobe = e / (np.pi * ax * ay * h[..., 2] ** 3) / (4 * half_cos(wo, wi))
         if "kd" in self.params:                   # channel sums, as the kernel's mixture
             kd = sum(float(v["kd"]) for v in self.channel_values())
             ks = sum(float(v["ks"]) for v in self.channel_values())
