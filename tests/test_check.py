@@ -120,39 +120,47 @@ def test_cli_check_exit_codes_and_json():
 
 # ---------------------------------------------------------------------------------------------
 # The battery over configurations drawn from each description (slow tier): each option value,
-# each optional parameter added at its default, RGB, double precision, and three presets.
+# each optional parameter added at its default, RGB, three presets, and each parameter at the lo
+# and hi edges of its range; the defaults and the edges in double precision too.
 
-BATTERY = [(n, cid, kw) for n in MODELS for cid, kw in configurations(n)
-           + [("double", {"precision": "double"})]]
+def _edge(cid):
+    return cid.endswith(("=lo", "=hi"))
+
+
+BATTERY = [(n, cid, kw) for n in MODELS for cid, kw in configurations(n)]
+BATTERY += [(n, f"{cid}-double" if cid != "defaults" else "double", {**kw, "precision": "double"})
+            for n in MODELS for cid, kw in configurations(n) if cid == "defaults" or _edge(cid)]
+
+# What fails at a range edge besides energy, and why (evidence in docs/models.md, "At the edges
+# of the ranges"): (model, id) -> the failing checks.
+EDGE_FAILURES = {
+    # E = 1.8e-11 (mu = 0.5) and 7e-10 (mu = 1) by quadrature, carried by about one sample in 1e6
+    # (y ~ Gamma(10, 1), tan theta_h = sigma y^5: nearly every normal is grazing): runs of 2^16
+    # samples report 0 +- 0. In single precision the 8-ulp floor (5e-7) covers it.
+    ("exppow", "p=lo-double"): {"albedo vs quadrature", "stderr honest"},
+    ("holzschuch_pacanowski", "p=lo-double"): {"albedo vs quadrature", "stderr honest"},
+    # A(phi) ~ sqrt(p) / sqrt(e^2 + p^2) near its peak (e: azimuth from it) spreads the mass
+    # log-uniformly over e in [1e-6, 1]: the check's panel quadrature of the pdf does not
+    # converge (it says so), so its expected counts are off;
+    # the sampler is right: brdf albedo 0.0018440 +- 9e-7 and 0.0041824 +- 4e-6 against the
+    # reference's quadrature 0.0018439 and 0.0041842 (mu = 0.05, 0.5; 2^20 samples)
+    ("schlick", "p=lo"): {"chi-square", "pdf integral"},
+    ("schlick", "p=lo-double"): {"chi-square", "pdf integral"},
+}
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name, cid, kw", BATTERY, ids=[f"{n}-{c}" for n, c, _ in BATTERY])
 def test_battery_over_configurations(name, cid, kw):
     """Every check passes except energy (a configuration may gain energy: F = 1 with a Lambertian
-    term, a fit with ks > 1, ...: reported, and listed in the note of the run) and the model's
-    known failures."""
+    term, a fit with ks > 1, ks = 1e6 at an edge, ...), the model's known failures and, at the
+    edges, EDGE_FAILURES (which must then fail: the entry goes with the fix)."""
     if name == "sgd_bagher" and cid.startswith("preset="):
         pytest.xfail("open defect: in single precision the fits' shadowing G1 = 1 - lam "
                      "expm1(c (theta - theta0)^k), k up to 48, is near its zero at grazing and "
                      "float32 cannot resolve it (alum-bronze G1(mu = 1e-6) 4.92e-5 against "
                      "5.44e-5 in float64): weights off f cos / pdf at mu <= 1e-4; double passes")
     r = check(name, **kw)            # the defaults of clbrdf check, as in the test above
-    allowed = {"energy"} | KNOWN_FAILURES.get(name, set()) | KNOWN_DEFECTS.get(name, set())
-    assert failing(r) <= allowed, r.table()
-
-
-@pytest.mark.parametrize("scale, passes", [(1.0, True), (0.2, False), (5.0, False)])
-def test_stderr_check_detects_a_wrong_stderr(monkeypatch, scale, passes):
-    """The kernels' estimates with their stderr scaled: 5x too small or 5x too large fails
-    `stderr honest`; the true stderr passes."""
-    import dataclasses
-    C = sys.modules["clbrdf.check"]          # (clbrdf.check is the function)
-    real = C.albedo
-
-    def scaled(*a, **kw):
-        r = real(*a, **kw)
-        return dataclasses.replace(r, stderr=r.stderr * scale)
-    monkeypatch.setattr(C, "albedo", scaled)
-    r = C.check_stderr(clbrdf.Model("ggx", alpha=0.3), seed=0, samples=1 << 14)
-    assert r.passed == passes, (r.statistic, r.threshold)
+    want = EDGE_FAILURES.get((name, cid), set())
+    allowed = {"energy"} | KNOWN_FAILURES.get(name, set()) | KNOWN_DEFECTS.get(name, set()) | want
+    assert want <= failing(r) <= allowed, r.table()

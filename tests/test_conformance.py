@@ -144,6 +144,10 @@ def _perturbed_spread(fn, wo, wi, k=6, seed=3):
 # stable form, 1 - c = |wo - wi|^2 / (4 (1 + c)), needs wo and wi at each Fresnel call.
 SINGLE_LIMITS = {(n, "f0=lo"): "Schlick (1 - c)^5 from a rounded c at f0 = 0"
                  for n in ("ggx", "beckmann", "exppow", "gtr")}
+# The open sgd_bagher defect (docs/models.md): the fits' G1 = 1 - lam expm1(c (theta - theta0)^k),
+# k up to 48, loses k times the float32 rounding of theta - theta0: alum-bronze 5e-6 relative at
+# cos theta = 0.02 (channel 2: single 568.40594, double 568.40307), 3 % at mu = 1e-6.
+SINGLE_LIMITS[("sgd_bagher", "preset=alum-bronze")] = "sgd_bagher fits' G1 in float32"
 
 
 @tiered(FAST_EVAL, limits=SINGLE_LIMITS)
