@@ -174,3 +174,27 @@ def test_single_precision_matches_double(name, cid, kw):
         assert np.all(err <= bound), (f"{what}: {np.count_nonzero(err > bound)} values off; worst "
                                       f"single {fs[i]!r} double {fd[i]!r} bound {bound[i]:.3g} "
                                       f"at wo={wo[i[0]]}, wi={wi[i[0]]}")
+
+
+ESTIMATORS = [("uniform", False), ("cosine", False), ("mis", False), ("brdf", True), ("mis", True)]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("estimator, qmc", ESTIMATORS, ids=[f"{e}{'-qmc' if q else ''}" for e, q in ESTIMATORS])
+@pytest.mark.parametrize("name", list(clbrdf.MODELS))
+def test_every_estimator_matches_reference(name, estimator, qmc):
+    """Each model's defaults, the other estimators (brdf pseudo-random is test_albedo_matches_
+    reference) at mu = 0.5 and 0.05, 2^18 samples, against the reference's quadrature: |z| below
+    the Sidak bound over every comparison of this test (family-wise 1e-3)."""
+    m = _model(name, {})
+    ref = reference(m)
+    for mu in (0.5, 0.05):
+        r = clbrdf.albedo(m, mu, samples=1 << 18, seed=11, estimator=estimator, qmc=qmc)
+        e_ref, err = ref.albedo(mu, tol=max(1e-7, 1e-2 * _tol(name)))
+        e, s = np.asarray(r.albedo, float), np.asarray(r.stderr, float)
+        bound = Z_ESTIMATORS * s + err + _tol(name) * np.abs(e_ref)
+        assert np.all(np.abs(e - e_ref) <= bound), (f"mu {mu}: E {e} +- {s} against the reference "
+                                                    f"{e_ref} +- {err}: z = {(e - e_ref) / s}")
+
+
+Z_ESTIMATORS = float(sps.norm.isf(sidak(1e-3, 2 * len(ESTIMATORS) * len(clbrdf.MODELS)) / 2))
