@@ -146,6 +146,11 @@ EDGE_FAILURES = {
     # reference's quadrature 0.0018439 and 0.0041842 (mu = 0.05, 0.5; 2^20 samples)
     ("schlick", "p=lo"): {"chi-square", "pdf integral"},
     ("schlick", "p=lo-double"): {"chi-square", "pdf integral"},
+    # alpha_y = 1e-3 under alpha_x = 0.2 at wo = (0.92, 0.39, 0.05): the panel quadrature of the
+    # bins' expected counts is still 0.26 sd from converged at 512 x 1024 panels (the horizon
+    # cuts the thin lobe obliquely); the chi-square's p there is 0.74, 0.09 to 0.90 elsewhere
+    ("ward", "alpha_y=lo"): {"chi-square"},
+    ("ward", "alpha_y=lo-double"): {"chi-square"},
 }
 
 
