@@ -301,7 +301,8 @@ def check_chi2(m, samples, seed, out_dir=None):
     results = []
     for j, wo in enumerate(wos):
         try:
-            r, panels, hmap = chi2_at(m, wo, samples, seed + j)
+            # up to 1024 x 2048 panels: Ward alpha_y = 1e-3 at a grazing off-axis wo needs them
+            r, panels, hmap = chi2_at(m, wo, samples, seed + j, max_levels=4)
         except ValueError as e:          # the pdf is not finite or negative somewhere
             bad = Check("chi-square", False, float("nan"), "a finite, non-negative pdf",
                         f"{e} at {_where(wo)}")
@@ -392,7 +393,7 @@ def check_albedo(m, samples, seed):
     zs, worst_z, worst = 0, 0.0, ""
     for j, wo in enumerate(wos):
         try:
-            _, panels, hmap = chi2_at(m, wo, 1 << 12, seed + 100 + j)
+            _, panels, hmap = chi2_at(m, wo, 1 << 12, seed + 100 + j, max_levels=3)
             q = quadrature_albedo(m, wo, hmap, panels)
         except ValueError as e:
             return Check("albedo vs quadrature", False, float("nan"), "a finite pdf and eval",
