@@ -50,7 +50,6 @@ def main():
     print("|---|---|---|---|---|---|---|")
     for a in (0.3, 0.91, 3.0):
         for L in LAMS:
-            c = (a * L) ** 2
             disk = integrate.quad(lambda r: 2 * np.pi * r / (1 + (r / (L * a)) ** 2) ** 2, 0, 1,
                                   epsabs=0, epsrel=1e-13)[0]
             alb = [lobe_albedo(a, L, mu) for mu in (1.0, 0.5, 0.1)]
