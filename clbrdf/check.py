@@ -193,7 +193,9 @@ def check_weight(m, v, perturbations: int = 4) -> Check:
     and returns wi rounded to its precision, so where f or pdf is ill-conditioned (near-mirror
     lobes at grazing angles) the weight is judged against the range of f cos / pdf over wi and
     wo moved by their rounding (a few random perturbations of one unit roundoff, renormalised,
-    and of each component by one ulp, not), widened by the relative tolerance."""
+    and of each component by one ulp, not), widened by its own width and by the relative
+    tolerance; samples where that value moves by more than itself within one rounding are not
+    judged, and counted."""
     up = (v["swi"][:, 2] > 0) & (v["sp"] > 0)
     wi, wo, w = v["swi"][up], v["wo_s"][up], _rowwise(v["sw"][up])
     if not len(wi):
@@ -496,11 +498,10 @@ def edge(p, side: str) -> float:
     return float(p.lo + (abs(p.lo) * 1e-6 if p.lo else 1e-6 * min(1.0, p.hi - p.lo)))
 
 
-def configurations(name: str, edges: bool = True) -> list[tuple[str, dict]]:
+def configurations(name: str) -> list[tuple[str, dict]]:
     """(id, keywords) of the configurations that the conformance battery runs for model
     ``name``, drawn from its description: the defaults, RGB, each option value, each optional
-    parameter added, up to three presets, and (``edges``) each parameter at the lo and hi edges
-    of its range, alone or with the option value that makes it used (ids ``alpha=lo``; double
+    parameter added, up to three presets, and each parameter at the lo and hi edges of its range, alone or with the option value that makes it used (ids ``alpha=lo``; double
     precision is a keyword of its own)."""
     from . import presets
     from .models import get_spec
@@ -527,16 +528,15 @@ def configurations(name: str, edges: bool = True) -> list[tuple[str, dict]]:
         except ParameterError:
             return False                # e.g. layer-2 parameters of schlick without material=double
     out = [(cid, kw) for cid, kw in out if valid(kw)]
-    if edges:
-        for p in spec.params:
-            if p.computed:
-                continue
-            for side in ("lo", "hi"):
-                kw = {p.name: edge(p, side)}
-                if p.name in base.param_names and kw[p.name] == p.default:
-                    continue            # the defaults again
-                alts = [kw] + [{**kw, o.name: c} for o in spec.options for c in o.choices]
-                ok = next((a for a in alts if valid(a)), None)
-                if ok is not None:
-                    out.append((f"{p.name}={side}", ok))
+    for p in spec.params:
+        if p.computed:
+            continue
+        for side in ("lo", "hi"):
+            kw = {p.name: edge(p, side)}
+            if p.name in base.param_names and kw[p.name] == p.default:
+                continue                # the defaults again
+            alts = [kw] + [{**kw, o.name: c} for o in spec.options for c in o.choices]
+            ok = next((a for a in alts if valid(a)), None)
+            if ok is not None:
+                out.append((f"{p.name}={side}", ok))
     return out

@@ -122,8 +122,8 @@ inline BSample holzschuch_pacanowski_sample(const Params *p, vec3 wo, rand4 u)
     vec3 wc = square_to_cosine_hemisphere(u.u0, u.u1);
     maskN refl = u.u2 < ps;
     s.wi = select3(wc, reflect3(wo, h), refl);
-    vec3 hh = select3(normalize3(add3(wc, wo)), h, refl);   /* the drawn h for a lobe sample */
-    realN ch = sel(half_cos(wo, wc), dot3(wo, h), refl);
+    realN ch;
+    vec3 hh = mixture_half(wo, h, wc, u.u2 >= ps, &ch);
     s.pdf = hp_pdf_h(p, wo, s.wi, hh, ch);
     maskN ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
     s.weight = spec_scale(hp_eval_h(p, wo, s.wi, hh, ch), s.wi.z / s.pdf);

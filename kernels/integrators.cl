@@ -166,7 +166,8 @@ inline spec albedo_estimate(const Params *p, vec3 wo, rand4 u)
      * technique per estimate: E = f cos / (pdf_b + pdf_c) at the BRDF sample wb (from u0, u1, u2)
      * + the same at the cosine sample wc (from u3, u2, or u2, u3 where the sampler uses two
      * numbers). Both are computed anyway; choosing one by u3, as before, added the choice's
-     * variance (a third of the total for a sharp lobe at mu = 1). A BRDF sample reuses its own
+     * variance (half of it for the Ashikhmin-Shirley plastic, nearly all for a sharp lobe:
+     * docs/models/ashikhmin_shirley.md). A BRDF sample reuses its own
      * weight f cos / pdf_b, computed from its half vector: recomputing f and pdf_b from wi + wo
      * loses the lobe in single precision at grazing angles. */
     BSample sb = BRDF(sample)(p, wo, u);

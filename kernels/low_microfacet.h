@@ -91,17 +91,17 @@ inline spec low_microfacet_eval(const Params *p, vec3 wo, vec3 wi)
     return f;
 }
 
-/* Density of the half-vector sampler per unit solid angle of wi (eq 23, 28), H = wi + wo. */
-inline realN low_mf_lobe_pdf(const Params *p, vec3 wo, vec3 H)
+/* Density of the half-vector sampler per unit solid angle of wi (eq 23, 28). */
+inline realN low_mf_lobe_pdf(const Params *p, vec3 wo, vec3 wi)
 {
-    realN x = low_one_minus_cos_h(H);
-    realN oh = (realN)0.5 * sqrt(dot3(H, H));                    /* wo.h, as half_cos */
+    realN x = low_one_minus_cos_h(add3(wi, wo));
+    realN oh = half_cos(wo, wi);
     return exp(-p->c * log1p(p->b * x)) * low_h_norm_inv(p->b, p->c) / (4 * oh);
 }
 
 inline realN low_microfacet_pdf(const Params *p, vec3 wo, vec3 wi)
 {
-    realN pdf = low_mf_lobe_pdf(p, wo, add3(wi, wo));
+    realN pdf = low_mf_lobe_pdf(p, wo, wi);
 #if LOW_DIFFUSE
     realN pd = low_mf_diffuse_prob(p, wo);
     pdf = cosine_mixture_pdf(pd, wi, pdf);

@@ -171,8 +171,8 @@ inline BSample microfacet_sample(const Params *p, vec3 wo, rand4 u)
     maskN diffuse = u.u2 < pd;
     vec3 wc = square_to_cosine_hemisphere(u.u0, u.u1);
     s.wi = select3(s.wi, wc, diffuse);
-    vec3 hh = select3(h, normalize3(add3(wc, wo)), diffuse);
-    realN c_h = sel(dot3(wo, h), half_cos(wo, wc), diffuse);
+    realN c_h;
+    vec3 hh = mixture_half(wo, h, wc, diffuse, &c_h);
     s.pdf = cosine_mixture_pdf(pd, s.wi, mf_lobe_pdf(m, wo, hh, c_h));
     ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
     /* f cos_i = F D G / (4 cos_o) + kd cos_i / pi */

@@ -302,8 +302,7 @@ inline BSample schlick_sample(const Params *p, vec3 wo, rand4 u)
     maskN diffuse = ud < pd;
     vec3 wc = square_to_cosine_hemisphere(u.u0, u.u1);
     s.wi = select3(s.wi, wc, diffuse);
-    h = select3(h, normalize3(add3(wc, wo)), diffuse);
-    uh = sel(uh, half_cos(wo, wc), diffuse);
+    h = mixture_half(wo, h, wc, diffuse, &uh);
 #endif
     s.pdf = sch_pdf_h(p, wo, s.wi, h, uh);
     maskN ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);

@@ -148,8 +148,8 @@ inline BSample sgd_bagher_sample(const Params *P, vec3 wo, rand4 u)
     vec3 wc = square_to_cosine_hemisphere(u.u0, u.u1);
     s.wi = select3(reflect3(wo, h), wc, diffuse);
     /* weight and pdf at the drawn h for a lobe sample, at normalize(wc + wo) for a cosine one */
-    vec3 hh = select3(h, normalize3(add3(wc, wo)), diffuse);
-    realN ch = sel(dot3(wo, h), half_cos(wo, wc), diffuse);
+    realN ch;
+    vec3 hh = mixture_half(wo, h, wc, diffuse, &ch);
     s.pdf = sgdb_pdf_h(P, wo, s.wi, hh, ch, inv_kap);
     maskN ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
     s.weight = spec_scale(sgdb_eval_h(P, wo, s.wi, hh, ch), s.wi.z / s.pdf);

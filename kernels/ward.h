@@ -91,8 +91,9 @@ inline BSample ward_sample(const Params *p, vec3 wo, rand4 u)
     maskN diffuse = u.u2 < pd;
     vec3 wc = square_to_cosine_hemisphere(u.u0, u.u1);
     s.wi = select3(s.wi, wc, diffuse);
-    vec3 sh = select3(h, add3(wc, wo), diffuse);
-    s.pdf = cosine_mixture_pdf(pd, s.wi, ward_lobe_pdf(p, sh, sel(oh, half_cos(wo, wc), diffuse)));
+    realN osh;
+    vec3 sh = mixture_half(wo, h, wc, diffuse, &osh);
+    s.pdf = cosine_mixture_pdf(pd, s.wi, ward_lobe_pdf(p, sh, osh));
     maskN ok = (s.wi.z > 0) & (wo.z > 0) & (s.pdf > 0);
     realN lobe = exp(-ward_exponent(p, sh)) * sqrt(s.wi.z / wo.z)
                  / (4 * PI_R * p->alpha_x * p->alpha_y);

@@ -29,4 +29,13 @@ inline realN cosine_mixture_pdf(realN pd, vec3 wi, realN lobe)
     return pd * wi.z * INV_PI_R + (1 - pd) * lobe;
 }
 
+/* The half vector at which such a mixture weighs its sample, and *oh = wo.h there: the drawn h
+ * of a lobe sample (recomputing it from a rounded wi misses a near-mirror lobe at grazing angles
+ * in single precision), normalize(wc + wo) with |wc + wo| / 2 (half_cos) for a cosine sample wc. */
+inline vec3 mixture_half(vec3 wo, vec3 h, vec3 wc, maskN cosine, realN *oh)
+{
+    *oh = sel(dot3(wo, h), half_cos(wo, wc), cosine);
+    return select3(h, normalize3(add3(wc, wo)), cosine);
+}
+
 #endif
