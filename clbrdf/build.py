@@ -51,7 +51,7 @@ def expand(name: str, seen: set | None = None) -> str:
     return f'// ---- {name} ----\n' + _INCLUDE.sub(sub, read_kernel(name))
 
 
-PARTS = ("batch", "random", "albedo")
+PARTS = ("batch", "random", "albedo", "quadrature")
 _TABLE = re.compile(r"\bTABLE_([a-z][a-z0-9_]*)\b")
 
 
@@ -96,7 +96,8 @@ def program_source(cfg: Config, precision: str, width: int, *, part: str = "batc
                    estimator: str = "brdf", rng: str = "philox") -> tuple[str, tuple[str, ...]]:
     """The self-contained source of one program. ``part`` picks its kernels, so that a program
     holds only the code its caller runs: ``batch`` (eval_batch, pdf_batch, sample_batch),
-    ``albedo`` (albedo_blocks for one estimator and generator) or ``random`` (random_batch for one
+    ``albedo`` (albedo_blocks for one estimator and generator), ``quadrature`` (quadrature_panels)
+    or ``random`` (random_batch for one
     generator; it contains no model, so one program serves every model). Returns the source and
     the names of the tables it reads (``with_tables``); assembled once per configuration."""
     if part not in PARTS:

@@ -330,7 +330,7 @@ def cmd_albedo(args) -> int:
     phi = _number(args.phi, "phi")
     m = _model(spec.name, args, params)
     r = albedo(m, mu, phi, estimator=args.estimator, samples=args.samples, seed=args.seed,
-               qmc=args.qmc, progress=True)
+               qmc=args.qmc, progress=True, **_quad_args(args))
     if args.json:
         out = r.to_json()
         out.update({"estimator": args.estimator, "qmc": args.qmc, "phi": phi,
@@ -338,18 +338,23 @@ def cmd_albedo(args) -> int:
         print(json.dumps(out))
         return 0
     print(f"{spec.name}  {_describe(m.describe())}")
-    print(f"estimator {args.estimator}{' (qmc)' if args.qmc else ''}, {r.samples} samples per "
-          f"point, seed {args.seed}, {m.precision} precision, phi {phi:g}, "
-          f"{m.device.info.name}, {r.seconds:.3g} s")
+    how = (f"quadrature to tol {r.tol:g}, up to {r.samples} evaluations per point" if r.tol
+           else f"{args.estimator}{' (qmc)' if args.qmc else ''}, {r.samples} samples per "
+                f"point, seed {args.seed}")
+    print(f"estimator {how}, {m.precision} precision, phi {phi:g}, {m.device.info.name}, "
+          f"{r.seconds:.3g} s")
+    err = "error" if r.tol else "stderr"
+    d = 9 if r.tol else 6                   # digits the error estimate supports
+    w = d + 4
     if m.channels == 1:
-        print(f"{'mu':>10}  {'albedo':>10}  {'stderr':>10}")
+        print(f"{'mu':>10}  {'albedo':>{w}}  {err:>10}")
         for x, e, s in zip(np.ravel(r.mu), np.ravel(r.albedo), np.ravel(r.stderr)):
-            print(f"{x:>10.6g}  {e:>10.6f}  {s:>10.2e}")
+            print(f"{x:>10.6g}  {e:>{w}.{d}f}  {s:>10.2e}")
         return 0
-    print(f"{'mu':>10}  " + "  ".join(f"{'albedo ' + c:>10}  {'stderr':>8}" for c in "RGB"))
+    print(f"{'mu':>10}  " + "  ".join(f"{'albedo ' + c:>{w}}  {err:>8}" for c in "RGB"))
     E, S = r.albedo.reshape(-1, 3), r.stderr.reshape(-1, 3)
     for x, e, s in zip(np.ravel(r.mu), E, S):
-        print(f"{x:>10.6g}  " + "  ".join(f"{a:>10.6f}  {b:>8.1e}" for a, b in zip(e, s)))
+        print(f"{x:>10.6g}  " + "  ".join(f"{a:>{w}.{d}f}  {b:>8.1e}" for a, b in zip(e, s)))
     return 0
 
 
@@ -414,11 +419,22 @@ def cmd_table(args) -> int:
                          seed=args.seed, qmc=args.qmc, precision=args.precision,
                          device=args.device, width=args.width, progress=True, preset=args.preset,
                          spacing=spacing, command=" ".join(["clbrdf"] + [_quote(a) for a in args.argv]),
-                         **params)
+                         **_quad_args(args), **params)
     seconds = time.perf_counter() - t0
     written = tables.save_table(table, out)
     print(tables.summary(table, seconds, written))
     return 0
+
+
+def _quad_args(args) -> dict:
+    """--tol and --max-evals for the quadrature estimator; refused with the others."""
+    given = {k: v for k, v in (("tol", args.tol), ("max_evals", args.max_evals)) if v is not None}
+    if args.estimator != "quadrature":
+        if given:
+            raise ParameterError(f"--{next(iter(given)).replace('_', '-')} is for --estimator "
+                                 f"quadrature, not {args.estimator}")
+        return {}
+    return given
 
 
 def _quote(a: str) -> str:
@@ -454,8 +470,15 @@ def build_parser() -> argparse.ArgumentParser:
 
     def sampling_args(p):
         p.add_argument("--estimator", choices=ESTIMATORS, default="brdf",
-                       help="uniform or cosine hemisphere sampling, brdf importance sampling, or "
-                            "mis (balance heuristic of brdf and cosine) (default brdf)")
+                       help="uniform or cosine hemisphere sampling, brdf importance sampling, "
+                            "mis (balance heuristic of brdf and cosine), or quadrature "
+                            "(deterministic, adaptive Gauss-Legendre in the sampler's unit "
+                            "square) (default brdf)")
+        p.add_argument("--tol", type=float, default=None, metavar="T",
+                       help="quadrature: error target per point (default 1e-6 single, 1e-7 "
+                            "double)")
+        p.add_argument("--max-evals", type=int, default=None, metavar="N",
+                       help="quadrature: integrand evaluations per point, at most (default 2^24)")
         p.add_argument("--qmc", action="store_true",
                        help="Owen-scrambled Sobol points in 16 scrambles instead of Philox")
         p.add_argument("--samples", "-n", type=int, default=1 << 16, metavar="N",

@@ -17,7 +17,9 @@ from .models import get_spec
 from .spec import ParameterError, check_directions, check_mu, finite_or_raise
 
 PRECISIONS = ("single", "double")
-ESTIMATORS = ("uniform", "cosine", "brdf", "mis")
+ESTIMATORS = ("uniform", "cosine", "brdf", "mis", "quadrature")
+MC_ESTIMATORS = ESTIMATORS[:4]
+QUAD_TOL = {"single": 1e-6, "double": 1e-7}     # default error target of the quadrature
 QMC_STREAMS = runtime.QMC_STREAMS
 
 
@@ -216,12 +218,15 @@ class AlbedoResult:
     stderr: np.ndarray
     mu: np.ndarray
     estimator: str
-    samples: int                     # samples per point actually taken
+    samples: int                     # samples per point actually taken (quadrature: the
+                                     # most integrand evaluations at any point)
     qmc: bool
     seed: int
     precision: str
     seconds: float
     model: dict = field(default_factory=dict)
+    tol: float | None = None         # quadrature: the error target
+    evaluations: np.ndarray | None = None   # quadrature: integrand evaluations per point
 
     def to_json(self) -> dict:
         return {"model": self.model.get("model"),
@@ -229,32 +234,68 @@ class AlbedoResult:
                 "estimator": self.estimator + ("+qmc" if self.qmc else ""), "samples": self.samples,
                 "precision": self.precision, "mu": np.asarray(self.mu).tolist(),
                 "albedo": np.asarray(self.albedo).tolist(), "stderr": np.asarray(self.stderr).tolist(),
-                "seconds": self.seconds, "seed": self.seed}
+                "seconds": self.seconds, "seed": self.seed,
+                **({} if self.tol is None else
+                   {"tol": self.tol, "evaluations": np.asarray(self.evaluations).tolist()})}
 
 
 def albedo(m: Model, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 << 16, seed: int = 0,
-           qmc: bool = False, progress: bool = False) -> AlbedoResult:
-    """Directional albedo E(wo) = integral f(wo, wi) cos(theta_i) dwi by Monte Carlo.
+           qmc: bool = False, tol: float | None = None, max_evals: int | None = None,
+           progress: bool = False) -> AlbedoResult:
+    """Directional albedo E(wo) = integral f(wo, wi) cos(theta_i) dwi.
 
     ``mu`` = cos(theta_o) and ``phi`` (azimuth of wo) broadcast with the model's parameters.
     ``estimator``: ``uniform`` / ``cosine`` hemisphere sampling, ``brdf`` importance sampling,
-    ``mis`` (balance heuristic, one brdf and one cosine sample per estimate). ``qmc``: Owen-scrambled Sobol points
-    in 16 independent scrambles (the error estimate is their spread) instead of Philox.
+    ``mis`` (balance heuristic, one brdf and one cosine sample per estimate), all by Monte Carlo
+    with ``samples`` per point; or ``quadrature``: deterministic adaptive Gauss-Legendre panels in
+    the sampler's own unit square until the error estimate is at most ``tol`` (default 1e-6
+    single, 1e-7 double) or ``max_evals`` integrand evaluations per point (default 2^24) are
+    spent (a RuntimeWarning says how many points stopped short); ``stderr`` is then that error
+    estimate and ``samples`` the most evaluations any point took. ``qmc``: Owen-scrambled Sobol
+    points in 16 independent scrambles (the error estimate is their spread) instead of Philox.
     The result is bit-identical for the same arguments, device kind and width, whatever the
     chunking or work-group size. Host memory does not grow with ``samples``.
     """
     _check_choice("estimator", estimator, ESTIMATORS)
-    samples = runtime.check_int("samples", samples, 2, 2**32 - 1, "[2, 2^32)")
-    runtime.seed_words(seed)
+    quad = estimator == "quadrature"
+    if quad:
+        if qmc:
+            raise ParameterError("qmc=True is not valid with estimator='quadrature': the "
+                                 "quadrature draws no random numbers")
+        tol = QUAD_TOL[m.precision] if tol is None else tol
+        if isinstance(tol, bool) or not isinstance(tol, (int, float, np.floating, np.integer)) \
+                or not 0 < float(tol) < 1:
+            raise ParameterError(f"tol={tol!r} is out of range: valid tol is in (0, 1)")
+        tol = float(tol)
+        max_evals = runtime.check_int("max_evals", runtime.QUAD_MAX_EVALS if max_evals is None
+                                      else max_evals, 1 << 18, 1 << 34, "[2^18, 2^34]")
+    else:
+        samples = runtime.check_int("samples", samples, 2, 2**32 - 1, "[2, 2^32)")
+        runtime.seed_words(seed)
+        if tol is not None or max_evals is not None:
+            raise ParameterError(f"tol and max_evals are for estimator='quadrature', not "
+                                 f"{estimator!r}")
     mu = check_mu(mu, m.precision)
     phi = np.asarray(phi, dtype=np.float64)
     finite_or_raise("phi", phi)
     shape = m._shape(np.zeros(np.broadcast_shapes(mu.shape, phi.shape) + (3,)))
     s_theta = np.sqrt(np.maximum(0.0, 1 - mu * mu))
     wo = [s_theta * np.cos(phi), s_theta * np.sin(phi), mu]
+    cshape = shape if m.channels == 1 else shape + (m.channels,)
+    if quad:
+        est, err, evals, seconds = runtime.run_quadrature(m, shape, wo, tol=tol,
+                                                          max_evals=max_evals, progress=progress)
+        short = np.max(err, axis=1) > tol
+        if short.any():
+            import warnings
+            warnings.warn(f"quadrature: {int(short.sum())} of {short.size} points stopped at "
+                          f"max_evals={max_evals} with an error estimate up to "
+                          f"{float(err.max()):.2g} > tol={tol:g}", RuntimeWarning, stacklevel=2)
+        return AlbedoResult(est.reshape(cshape), err.reshape(cshape), np.broadcast_to(mu, shape),
+                            estimator, int(evals.max(initial=0)), False, 0, m.precision, seconds,
+                            m.describe(), tol=tol, evaluations=evals.reshape(shape))
     est, err, plan, seconds = runtime.run_albedo(m, shape, wo, estimator=estimator, samples=samples,
                                                  seed=seed, qmc=qmc, progress=progress)
-    cshape = shape if m.channels == 1 else shape + (m.channels,)
     return AlbedoResult(est.reshape(cshape), err.reshape(cshape), np.broadcast_to(mu, shape),
                         estimator, plan.samples, qmc, int(seed), m.precision, seconds,
                         m.describe())
@@ -282,7 +323,8 @@ def albedo_avg(m: Model, *, nodes: int = GAUSS_NODES, phi_nodes: int | None = No
     isotropic model; returns (E_avg, stderr) broadcast over the model's parameters. Gauss-Legendre
     in mu (``nodes``); where E depends on the azimuth of wo (anisotropic models, Schlick's
     scratches: ``m.anisotropic``) also the mean over ``phi_nodes`` azimuths (default PHI_NODES).
-    The error estimate is the Monte Carlo error only."""
+    The error estimate is the Monte Carlo error only (with ``estimator='quadrature'``, the sum
+    of the weighted error estimates), not the rule's error in mu and phi."""
     if phi_nodes is None:
         phi_nodes = PHI_NODES if m.anisotropic else 1
     mu, phi, c = _avg_rule(nodes, phi_nodes)
@@ -291,6 +333,8 @@ def albedo_avg(m: Model, *, nodes: int = GAUSS_NODES, phi_nodes: int | None = No
     r = albedo(m, mu.reshape((-1, 1) + (1,) * len(pshape)), phi.reshape((1, -1) + (1,) * len(pshape)),
                **kw)
     cw = c.reshape(lead + (1,) * (r.albedo.ndim - len(lead)))
+    if r.tol is not None:           # quadrature: error bounds add up
+        return (cw * r.albedo).sum(axis=(0, 1)), (cw * r.stderr).sum(axis=(0, 1))
     return (cw * r.albedo).sum(axis=(0, 1)), np.sqrt(((cw * r.stderr) ** 2).sum(axis=(0, 1)))
 
 
@@ -332,6 +376,7 @@ def _runtime_environment() -> dict:
 def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: str = "brdf",
                  seed: int = 0, qmc: bool = False, precision: str = "single", device=None,
                  width: int | None = None, progress: bool = False, avg_nodes: int = GAUSS_NODES,
+                 tol: float | None = None, max_evals: int | None = None,
                  phi_nodes: int | None = None, spacing: dict | None = None,
                  command: str | None = None, **fixed):
     """A table of E over the grid of ``axes`` (an ordered dict name -> 1-D array: ``mu``, ``phi``
@@ -361,8 +406,9 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
     m = Model(name, precision=precision, device=device, width=width, **fixed, **param_grid(grids))
     t0 = time.perf_counter()
     out = {k: axes[k] for k in names}
+    quad = {"tol": tol, "max_evals": max_evals} if estimator == "quadrature" else {}
     r = albedo(m, grids["mu"], grids.get("phi", 0.0), samples=samples, estimator=estimator,
-               seed=seed, qmc=qmc, progress=progress)
+               seed=seed, qmc=qmc, progress=progress, **quad)
     out["E"], out["E_stderr"] = r.albedo, r.stderr
     all_names = names + (["channel"] if m.channels > 1 else [])
     if m.channels > 1:                  # RGB: a last axis "channel" (0, 1, 2 = R, G, B)
@@ -374,7 +420,7 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
     ma = Model(name, precision=precision, device=device, width=width, **fixed, **param_grid(sub))
     out["E_avg"], out["E_avg_stderr"] = albedo_avg(ma, nodes=avg_nodes, phi_nodes=phi_nodes,
                                                    samples=samples, estimator=estimator,
-                                                   seed=seed, qmc=qmc, progress=progress)
+                                                   seed=seed, qmc=qmc, progress=progress, **quad)
     n_phi = (PHI_NODES if ma.anisotropic else 1) if phi_nodes is None else phi_nodes
     fixed_all = {k: (v.item() if v.ndim == 0 else v.tolist()) for k, v in probe.params.items()
                  if k not in names}
@@ -382,6 +428,8 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
     meta = {"model": name, "fixed": {**fixed_all, **m.options}, "options": m.options,
             "axes": all_names, "spacing": spacing, "channels": m.channels,
             "estimator": estimator, "qmc": qmc, "samples": r.samples, "seed": int(seed),
+            **({} if r.tol is None else {"tol": r.tol, "max_evals": max_evals or
+                                         runtime.QUAD_MAX_EVALS}),
             "precision": precision, "width": m.width, "device": dev.name,
             "platform": dev.platform, "driver": dev.driver, "version": __version__,
             "environment": _runtime_environment(), "seconds": time.perf_counter() - t0,

@@ -245,10 +245,19 @@ def _title(meta) -> str:
     head = meta.get("model", "?") + (f" ({opts})" if opts else "")
     if meta.get("preset"):
         head += f", preset {meta['preset'].get('material')} ({meta['preset'].get('source')})"
-    est = meta.get("estimator", "?") + (" + QMC" if meta.get("qmc") else "")
-    line2 = (f"{fixed}; " if fixed else "") + (f"{meta.get('samples')} samples/point, {est}, "
-                                               f"{meta.get('precision')} precision")
+    line2 = (f"{fixed}; " if fixed else "") + f"{_how(meta, short=True)}, {meta.get('precision')} precision"
     return f"Directional albedo E: {head}\n{line2}"
+
+
+def _how(meta: dict, short: bool = False) -> str:
+    """How a table was computed, from its metadata."""
+    if meta.get("estimator") == "quadrature":
+        return (f"quadrature to tol {meta.get('tol'):g}" +
+                ("" if short else f", up to {meta.get('samples')} evaluations per point"))
+    est = meta.get("estimator", "?") + (" + QMC" if meta.get("qmc") else "")
+    if short:
+        return f"{meta.get('samples')} samples/point, {est}"
+    return f"{meta.get('samples')} samples per point, estimator {est}, seed {meta.get('seed')}"
 
 
 CHANNEL_NAMES = ("R", "G", "B")
@@ -373,13 +382,12 @@ def summary(table: dict, seconds: float, written) -> str:
         return ", ".join(f"{n}={float(np.asarray(table[n])[i]):.3g}" for n, i in zip(names, idx))
     imin = np.unravel_index(int(np.argmin(E)), E.shape)
     imax = np.unravel_index(int(np.argmax(E)), E.shape)
-    est = meta.get("estimator", "?") + (" + QMC" if meta.get("qmc") else "")
+    err = "error" if meta.get("estimator") == "quadrature" else "stderr"
     lines = [
         f"{meta.get('model')} albedo table: {grid} = {E.size} points",
-        f"  {meta.get('samples')} samples per point, estimator {est}, seed {meta.get('seed')}, "
-        f"{meta.get('precision')} precision, {meta.get('device')}: {seconds:.1f} s",
+        f"  {_how(meta)}, {meta.get('precision')} precision, {meta.get('device')}: {seconds:.1f} s",
         f"  E      min {E.min():.5f} ({at(imin)}), max {E.max():.5f} ({at(imax)}), "
-        f"max stderr {np.max(table['E_stderr']):.1e}",
+        f"max {err} {np.max(table['E_stderr']):.1e}",
     ]
     others = _avg_axes(table)
     if others and A.ndim:
@@ -390,7 +398,7 @@ def summary(table: dict, seconds: float, written) -> str:
             return ", ".join(f"{n}={float(np.asarray(table[n])[i]):.3g}"
                              for n, i in zip(others, idx))
         lines.append(f"  E_avg  min {A.min():.5f} ({at2(j0)}), max {A.max():.5f} ({at2(j1)}), "
-                     f"max stderr {np.max(table['E_avg_stderr']):.1e}")
+                     f"max {err} {np.max(table['E_avg_stderr']):.1e}")
     else:
         lines.append(f"  E_avg  {float(A):.5f} +- {float(np.max(table['E_avg_stderr'])):.1e}")
     lines.append("  wrote " + ", ".join(str(p) for p in written))

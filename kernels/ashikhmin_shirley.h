@@ -174,6 +174,15 @@ inline vec3 as_sample_h(const Params *p, realN u0, realN u1)
     return v3(st * cp, st * sp, ct);
 }
 
+/* The lobes the sampler picks with u2: lobe l for u2 in [ends[l - 1], ends[l]) (ends[-1] = 0,
+ * the last end 1); the deterministic quadrature (integrators.cl) integrates each lobe's map. */
+#define ashikhmin_shirley_LOBES 2
+inline void ashikhmin_shirley_lobe_ends(const Params *p, vec3 wo, realN *ends)
+{
+    ends[0] = as_diffuse_prob(p, wo);         /* cosine */
+    ends[1] = (realN)1;                       /* specular */
+}
+
 inline BSample ashikhmin_shirley_sample(const Params *p, vec3 wo, rand4 u)
 {
     vec3 h = as_sample_h(p, u.u0, u.u1);

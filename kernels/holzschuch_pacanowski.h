@@ -112,6 +112,15 @@ inline realN holzschuch_pacanowski_pdf(const Params *p, vec3 wo, vec3 wi)
     return hp_pdf_h(p, wo, wi, normalize3(add3(wi, wo)), half_cos(wo, wi));
 }
 
+/* The lobes the sampler picks with u2: lobe l for u2 in [ends[l - 1], ends[l]) (ends[-1] = 0,
+ * the last end 1); the deterministic quadrature (integrators.cl) integrates each lobe's map. */
+#define holzschuch_pacanowski_LOBES 2
+inline void holzschuch_pacanowski_lobe_ends(const Params *p, vec3 wo, realN *ends)
+{
+    hp_lobe_probs(p, ends);                   /* reflection lobe */
+    ends[1] = (realN)1;                       /* cosine */
+}
+
 inline BSample holzschuch_pacanowski_sample(const Params *p, vec3 wo, rand4 u)
 {
     Microfacet m = MICROFACET(p->sigma, p->sigma, p->p, p);

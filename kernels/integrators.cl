@@ -7,7 +7,8 @@
  *               for each spectral one (rows row .. row + CHANNELS - 1)
  *   CHANNELS    1, or 3 (RGB): a model's value and weight have CHANNELS components
  *   KERNELS     KERNELS_BATCH (eval_batch, pdf_batch, sample_batch), KERNELS_ALBEDO
- *               (albedo_blocks) or KERNELS_RANDOM (random_batch: no model, no Params)
+ *               (albedo_blocks), KERNELS_QUADRATURE (quadrature_panels) or KERNELS_RANDOM
+ *               (random_batch: no model, no Params)
  *   MODEL       the model's function prefix (lambert, microfacet, ...)
  *   ESTIMATOR   ESTIMATOR_UNIFORM | ESTIMATOR_COSINE | ESTIMATOR_BRDF | ESTIMATOR_MIS (albedo)
  *   RNG         rand_philox | rand_sobol (RNG_PHILOX 1 for the first; albedo and random)
@@ -23,6 +24,7 @@
 #define KERNELS_BATCH 0
 #define KERNELS_ALBEDO 1
 #define KERNELS_RANDOM 2
+#define KERNELS_QUADRATURE 3
 
 #define ESTIMATOR_UNIFORM 0
 #define ESTIMATOR_COSINE 1
@@ -253,5 +255,90 @@ __kernel void albedo_blocks(const global real_t *P, Tables TABLES, const global 
 }
 
 #endif /* KERNELS_ALBEDO */
+
+#if KERNELS == KERNELS_QUADRATURE
+
+/* ---- directional albedo by deterministic quadrature in the sampler's own unit square ----
+ *
+ * The sampler maps u in [0,1)^4 onto the hemisphere with density pdf and returns
+ * weight = f cos / pdf, so E(wo) = int weight(wo, u) du. A sampler that uses u2 only to pick a
+ * lobe (lobe l for u2 in [ends[l - 1], ends[l]), MODEL_lobe_ends) makes the integral over u2 a
+ * sum over its lobes: the interval's length times the integral over (u0, u1) with u2 at the
+ * interval's midpoint. The sampler flattens its lobe, so the integrand over (u0, u1) is smooth
+ * however sharp the lobe, but for kinks where wi crosses the horizon; the host refines the
+ * panels where the error estimates are large (clbrdf/runtime.py, run_quadrature).
+ *
+ * Panels live in v in [0,1]^2, mapped to u per axis by the sigmoidal map of Sidi (1993),
+ * u = v^4 / (v^4 + (1 - v)^4), whose Jacobian vanishes as v^3 at both ends: features attached to
+ * an edge of the square at any scale (a lobe's tail squeezed into 1 - u < alpha^2, the pole at
+ * u = 0) are reached by the nodes (GGX alpha 1e-3: an E of 1 - 7e-6 was 1 - 1e-10 without it).
+ * Work-item g integrates panel g: v0 in [BOX[g], BOX[n + g]), v1 in [BOX[2n + g], BOX[3n + g])
+ * (n = npanels) of point PT[g]. RULE holds `nodes` entries (a multiple of W) as four rows: x, y
+ * on [0,1]^2 and the weights of two tensor Gauss-Legendre rules of different orders (each entry
+ * belongs to one rule; its other weight is 0). Per channel the panel writes the higher-order
+ * rule's value at out[2 (CHANNELS g + c)] and |higher - lower| at + 1, its error estimate. */
+inline realN sidi4(realN v, realN *jac)
+{
+    realN w = 1 - v, v3 = v * v * v, w3 = w * w * w, a = v3 * v, b = w3 * w, d = a + b;
+    *jac = 4 * v3 * w3 / (d * d);
+    return sel(a / d, (realN)1 - b / d, v > (realN)0.5);
+}
+
+__kernel void quadrature_panels(const global real_t *P, Tables TABLES, const global real_t *WO,
+                                const ulong npoints, const global uint *PT,
+                                const global real_t *BOX, const ulong npanels, const uint nodes,
+                                const global real_t *RULE, global real_t *out)
+{
+    ulong g = get_global_id(0);
+    if (g >= npanels) return;
+    ulong point = PT[g];
+    Params p = splat_params(P, TABLES, npoints, point);
+    vec3 wo = v3((realN)WO[point], (realN)WO[npoints + point], (realN)WO[2 * npoints + point]);
+#if BRDF(SAMPLE_DIMS) > 2
+    realN ends[BRDF(LOBES)];
+    BRDF(lobe_ends)(&p, wo, ends);
+#endif
+    real_t s0 = BOX[g], ds = BOX[npanels + g] - s0;
+    real_t t0 = BOX[2 * npanels + g], dt = BOX[3 * npanels + g] - t0;
+    realN ph[CHANNELS], pl[CHANNELS];
+    for (int ch = 0; ch < CHANNELS; ++ch)
+        ph[ch] = pl[ch] = 0;
+    for (uint k = 0; k < nodes; k += W) {
+        realN j0, j1;
+        rand4 u = {sidi4(s0 + ds * VLOAD(RULE + k), &j0), sidi4(t0 + dt * VLOAD(RULE + nodes + k), &j1),
+                   (realN)0.5, (realN)0.5};
+        u.u0 = fmin(u.u0, (realN)1 - REAL_EPS / 2);     /* u < 1, as from the generators */
+        u.u1 = fmin(u.u1, (realN)1 - REAL_EPS / 2);
+        realN wh = VLOAD(RULE + 2 * nodes + k) * j0 * j1, wl = VLOAD(RULE + 3 * nodes + k) * j0 * j1;
+#if BRDF(SAMPLE_DIMS) > 2
+        spec e;
+        for (int ch = 0; ch < CHANNELS; ++ch)
+            e.c[ch] = 0;
+        realN lo = 0;
+        for (int l = 0; l < BRDF(LOBES); ++l) {
+            realN len = ends[l] - lo;
+            u.u2 = lo + len / 2;
+            spec el = BRDF(sample)(&p, wo, u).weight;
+            for (int ch = 0; ch < CHANNELS; ++ch)
+                e.c[ch] += sel((realN)0, el.c[ch] * len, len > 0);
+            lo = ends[l];
+        }
+#else
+        spec e = BRDF(sample)(&p, wo, u).weight;
+#endif
+        for (int ch = 0; ch < CHANNELS; ++ch) {
+            ph[ch] += wh * e.c[ch];
+            pl[ch] += wl * e.c[ch];
+        }
+    }
+    real_t area = ds * dt;
+    for (int ch = 0; ch < CHANNELS; ++ch) {
+        real_t a = HSUM(ph[ch]) * area, b = HSUM(pl[ch]) * area;
+        out[2 * (CHANNELS * g + ch)] = a;
+        out[2 * (CHANNELS * g + ch) + 1] = fabs(a - b);
+    }
+}
+
+#endif /* KERNELS_QUADRATURE */
 
 #endif /* a model's kernels */

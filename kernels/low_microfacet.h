@@ -120,6 +120,15 @@ inline vec3 low_sample_h(realN b, realN c, realN u0, realN u1, realN *x_out)
     return v3(st * cp, st * sp, 1 - x);
 }
 
+/* The lobes the sampler picks with u2: lobe l for u2 in [ends[l - 1], ends[l]) (ends[-1] = 0,
+ * the last end 1); the deterministic quadrature (integrators.cl) integrates each lobe's map. */
+#define low_microfacet_LOBES 2
+inline void low_microfacet_lobe_ends(const Params *p, vec3 wo, realN *ends)
+{
+    ends[0] = low_mf_diffuse_prob(p, wo);     /* cosine */
+    ends[1] = (realN)1;                       /* microfacet lobe */
+}
+
 inline BSample low_microfacet_sample(const Params *p, vec3 wo, rand4 u)
 {
     realN x;

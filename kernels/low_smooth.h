@@ -166,6 +166,17 @@ inline realN low_smooth_pdf(const Params *p, vec3 wo, vec3 wi)
     return low_smooth_pdf_mix(p, low_smooth_mix(p, wo), wo, wi);
 }
 
+/* The lobes the sampler picks with u2: lobe l for u2 in [ends[l - 1], ends[l]) (ends[-1] = 0,
+ * the last end 1); the deterministic quadrature (integrators.cl) integrates each lobe's map. */
+#define low_smooth_LOBES 3
+inline void low_smooth_lobe_ends(const Params *p, vec3 wo, realN *ends)
+{
+    LowSmoothMix m = low_smooth_mix(p, wo);
+    ends[0] = m.d;                            /* cosine */
+    ends[1] = m.d + m.l2;                     /* second lobe */
+    ends[2] = (realN)1;                       /* first lobe */
+}
+
 inline BSample low_smooth_sample(const Params *p, vec3 wo, rand4 u)
 {
     LowSmoothMix m = low_smooth_mix(p, wo);

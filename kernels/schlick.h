@@ -275,6 +275,24 @@ inline vec3 sch_sample_h(SchLayer L, int aniso, realN u0, realN u1)
     return v3(sin_t * cp, sin_t * sp, cos_t);
 }
 
+/* The lobes the sampler picks with u2: lobe l for u2 in [ends[l - 1], ends[l]) (ends[-1] = 0,
+ * the last end 1); the deterministic quadrature (integrators.cl) integrates each lobe's map. */
+#define schlick_LOBES (SCH_DOUBLE && SCH_DIFFUSE ? 4 : 2)
+inline void schlick_lobe_ends(const Params *p, vec3 wo, realN *ends)
+{
+#if SCH_DOUBLE && SCH_DIFFUSE
+    realN P1 = sch_layer_prob(p, wo.z);
+    ends[0] = P1 * sch_diffuse_prob(sch_layer1(p), wo.z);              /* layer 1: cosine, */
+    ends[1] = P1;                                                        /* lobe */
+    ends[2] = P1 + (1 - P1) * sch_diffuse_prob(sch_layer2(p), wo.z);   /* layer 2: cosine, */
+#elif SCH_DOUBLE
+    ends[0] = sch_layer_prob(p, wo.z);                                   /* layer 1, layer 2 */
+#else
+    ends[0] = sch_diffuse_prob(sch_layer1(p), wo.z);                     /* cosine, lobe */
+#endif
+    ends[schlick_LOBES - 1] = (realN)1;
+}
+
 inline BSample schlick_sample(const Params *p, vec3 wo, rand4 u)
 {
 #if SCH_DOUBLE

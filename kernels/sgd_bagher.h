@@ -122,6 +122,23 @@ inline realN sgd_bagher_pdf(const Params *P, vec3 wo, vec3 wi)
     return sgdb_pdf_h(P, wo, wi, normalize3(add3(wi, wo)), half_cos(wo, wi), inv_kap);
 }
 
+/* The lobes the sampler picks with u2: lobe l for u2 in [ends[l - 1], ends[l]) (ends[-1] = 0,
+ * the last end 1); the deterministic quadrature (integrators.cl) integrates each lobe's map. */
+#define sgd_bagher_LOBES (2 * CHANNELS)
+inline void sgd_bagher_lobe_ends(const Params *P, vec3 wo, realN *ends)
+{
+    realN inv_kap[CHANNELS], wd[CHANNELS], ws[CHANNELS];
+    for (int ch = 0; ch < CHANNELS; ++ch)
+        inv_kap[ch] = sgdb_inv_kap(P, ch);
+    realN tot = sgdb_weights(P, wo, inv_kap, wd, ws), acc = 0;
+    for (int ch = 0; ch < CHANNELS; ++ch) {      /* per channel: cosine, then specular */
+        ends[2 * ch] = sel((realN)1, (acc + wd[ch]) / tot, tot > 0);
+        acc += wd[ch] + ws[ch];
+        ends[2 * ch + 1] = sel((realN)1, acc / tot, tot > 0);
+    }
+    ends[2 * CHANNELS - 1] = (realN)1;
+}
+
 inline BSample sgd_bagher_sample(const Params *P, vec3 wo, rand4 u)
 {
     realN inv_kap[CHANNELS], wd[CHANNELS], ws[CHANNELS];

@@ -77,6 +77,15 @@ inline realN ward_pdf(const Params *p, vec3 wo, vec3 wi)
     return sel((realN)0, pdf, (wi.z > 0) & (wo.z > 0));
 }
 
+/* The lobes the sampler picks with u2: lobe l for u2 in [ends[l - 1], ends[l]) (ends[-1] = 0,
+ * the last end 1); the deterministic quadrature (integrators.cl) integrates each lobe's map. */
+#define ward_LOBES 2
+inline void ward_lobe_ends(const Params *p, vec3 wo, realN *ends)
+{
+    ends[0] = ward_diffuse_prob(p);           /* cosine */
+    ends[1] = (realN)1;                       /* Gaussian lobe */
+}
+
 inline BSample ward_sample(const Params *p, vec3 wo, rand4 u)
 {
     realN c, sn = sincos_2pi(u.u0, &c);
