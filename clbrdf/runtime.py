@@ -93,9 +93,11 @@ def progress_bar(total: int, enabled: bool, unit: str = "sample"):
 class AlbedoPlan:
     """How the samples of one point are cut: ``streams`` independent streams (16 scrambles with
     QMC) of ``per_stream`` samples, each in ``bps`` blocks of ``block_len`` (the last may be
-    partial). The block length is BLOCK, or fewer (a multiple of 2 W: a Philox call serves two
-    samples) when a stream is shorter, so that 16 QMC streams of 128 samples do not run 16 blocks
-    of 1024."""
+    partial). A block holds ``lanes`` streams: 1 with Philox, whose block length is BLOCK or
+    fewer (a multiple of 2 W: a Philox call serves two samples) when a stream is shorter, so
+    that short streams waste no lanes; W with QMC (albedo_qmc: the lanes are W scrambles of the
+    same sample indices), whose block length is a power of two, at most BLOCK. A point has
+    ``groups`` = streams / lanes groups of ``bps`` blocks."""
 
     def __init__(self, samples: int, qmc: bool, width: int):
         self.streams = QMC_STREAMS if qmc else 1
@@ -103,9 +105,15 @@ class AlbedoPlan:
         if self.per_stream < 2:
             raise ParameterError(f"samples={samples} is out of range: each of the {self.streams} "
                                  f"streams needs at least 2 samples")
-        self.block_len = min(build.BLOCK, -(-self.per_stream // (2 * width)) * 2 * width)
+        if qmc:
+            self.lanes = width
+            self.block_len = min(build.BLOCK, 1 << (self.per_stream - 1).bit_length())
+        else:
+            self.lanes = 1
+            self.block_len = min(build.BLOCK, -(-self.per_stream // (2 * width)) * 2 * width)
+        self.groups = self.streams // self.lanes
         self.bps = -(-self.per_stream // self.block_len)
-        self.blocks = self.streams * self.bps
+        self.blocks = self.groups * self.bps
 
     def counts(self, j0: int, nb: int) -> np.ndarray:
         """Samples in blocks j0 .. j0 + nb - 1 of a stream (only the last block may be short)."""
@@ -122,14 +130,15 @@ class _Reducer:
     sequential sums S = sum (e - C) and T = sum (e - C)^2, from the blocks' K, D, Q (see
     albedo_blocks in kernels/integrators.cl):
         sum over a block of (e - C)   = D + n (K - C)
-        sum over a block of (e - C)^2 = Q + 2 (K - C) D + n (K - C)^2."""
+        sum over a block of (e - C)^2 = Q + 2 (K - C) D + n (K - C)^2.
+    With QMC the error comes from the streams' means alone: T is not kept."""
 
     def __init__(self, npts, plan: AlbedoPlan, nch):
         shape = (npts, plan.streams, nch)
         self.plan = plan
         self.C = np.zeros(shape)
         self.S = np.zeros(shape)
-        self.T = np.zeros(shape)
+        self.T = np.zeros(shape) if plan.streams == 1 else None
 
     def add(self, points: slice, stream: slice, first_block: int, kdq: np.ndarray):
         """kdq: (points, streams, blocks, channels, 3) for blocks first_block.. of these streams."""
@@ -137,9 +146,17 @@ class _Reducer:
         K, D, Q = kdq[..., 0], kdq[..., 1], kdq[..., 2]
         if first_block == 0:
             self.C[points, stream] = K[:, :, 0]
+            if K.shape[2] == 1:       # one block per stream: C = K, the sums are D and Q (+ 0.0
+                self.S[points, stream] = D[:, :, 0] + 0.0     # as 0 + D in the general case)
+                if self.T is not None:
+                    self.T[points, stream] = Q[:, :, 0] + 0.0
+                return
         n = self.plan.counts(first_block, K.shape[2])[None, None, :, None]
         dk = K - self.C[points, stream][:, :, None]
-        for acc, t in ((self.S, D + n * dk), (self.T, Q + 2 * dk * D + n * dk * dk)):
+        sums = [(self.S, D + n * dk)]
+        if self.T is not None:
+            sums.append((self.T, Q + 2 * dk * D + n * dk * dk))
+        for acc, t in sums:
             seq = np.concatenate([acc[points, stream][:, :, None], t], axis=2)
             acc[points, stream] = np.cumsum(seq, axis=2)[:, :, -1]    # sequential: split-independent
 
@@ -162,7 +179,7 @@ def run_albedo(m, shape, wo_rows, *, estimator: str, samples: int, seed: int, qm
     npts = math.prod(shape)
     nch = m.channels
     prog = m.program(part="albedo", estimator=estimator, rng="sobol" if qmc else "philox")
-    kern = kernel(prog.program, "albedo_blocks")
+    kern = kernel(prog.program, "albedo_qmc" if qmc else "albedo_blocks")
     lo, hi = seed_words(seed)
     ctx, q = m.device.context, m.device.queue
     mf = cl.mem_flags
@@ -175,13 +192,15 @@ def run_albedo(m, shape, wo_rows, *, estimator: str, samples: int, seed: int, qm
     # one local size for every launch of the job (PoCL compiles a kernel per local size; the
     # split into launches must not add compilations)
     local = ndrange(npts * plan.blocks, m.device)[1]
+    L = plan.lanes
+    block_samples = plan.block_len * L
     point, block = 0, 0            # next block to launch (block in the point's 0 .. blocks - 1)
     while point < npts:
-        budget_blocks = max(1, budget // plan.block_len)
+        budget_blocks = max(1, budget // block_samples)
         if block == 0 and budget_blocks >= plan.blocks:      # whole points
             k = min(npts - point, budget_blocks // plan.blocks)
             nb = plan.blocks
-        else:                                                # part of one point's stream
+        else:                                                # part of one point's group
             k = 1
             nb = min(budget_blocks, plan.bps - block % plan.bps)
         P = np.ascontiguousarray(params_full[:, point:point + k])
@@ -189,7 +208,7 @@ def run_albedo(m, shape, wo_rows, *, estimator: str, samples: int, seed: int, qm
         bp = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=P) if P.size else \
             cl.Buffer(ctx, mf.READ_ONLY, 8)
         bw = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=WO)
-        out = np.empty(k * nb * nch * 3, dtype=m.dtype)
+        out = np.empty(k * nb * nch * 3 * L, dtype=m.dtype)
         bo = cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes)
         tl = time.perf_counter()
         kern(q, *ndrange_with(k * nb, local), bp, prog.tables, bw, np.uint64(k), np.uint64(point),
@@ -199,21 +218,25 @@ def run_albedo(m, shape, wo_rows, *, estimator: str, samples: int, seed: int, qm
         q.finish()
         dt = time.perf_counter() - tl
         pts = slice(point, point + k)
+        # (points, groups, blocks, lanes, channels, 3) -> (points, streams, blocks, channels, 3)
+        ng = nb // plan.bps if nb == plan.blocks else 1
+        kdq = out.reshape(k, ng, nb // ng, nch, 3, L).transpose(0, 1, 5, 2, 3, 4)
+        kdq = kdq.reshape(k, ng * L, nb // ng, nch, 3)
         if nb == plan.blocks:
-            red.add(pts, slice(None), 0, out.reshape(k, plan.streams, plan.bps, nch, 3))
+            red.add(pts, slice(None), 0, kdq)
             point += k
             done = k * plan.samples
         else:
-            s, j0 = divmod(block, plan.bps)
-            red.add(pts, slice(s, s + 1), j0, out.reshape(1, 1, nb, nch, 3))
+            grp, j0 = divmod(block, plan.bps)
+            red.add(pts, slice(grp * L, grp * L + L), j0, kdq)
             block += nb
-            done = int(plan.counts(j0, nb).sum())
+            done = int(plan.counts(j0, nb).sum()) * L
             if block == plan.blocks:
                 point, block = point + 1, 0
         bar.update(done)
-        launched = k * nb * plan.block_len
+        launched = k * nb * block_samples
         rate = launched / max(dt, 1e-6)
-        budget = int(min(LAUNCH_SAMPLES, max(plan.block_len, rate * LAUNCH_SECONDS)))
+        budget = int(min(LAUNCH_SAMPLES, max(block_samples, rate * LAUNCH_SECONDS)))
     bar.close()
     est, err = red.result(qmc)
     return est, err, plan, time.perf_counter() - t0

@@ -185,6 +185,8 @@ inline spec albedo_estimate(const Params *p, vec3 wo, rand4 u)
 #endif
 }
 
+#if RNG_PHILOX
+
 /* Work-item g of a launch: point g / launch_blocks, block b = block0 + g % launch_blocks of the
  * point's `blocks` (stream b / blocks_per_stream), samples [j L, j L + L) of that stream with
  * j = b % blocks_per_stream and L = block_len (a multiple of 2 W, at most 1024, chosen by the host
@@ -253,6 +255,73 @@ __kernel void albedo_blocks(const global real_t *P, Tables TABLES, const global 
         out[3 * (CHANNELS * g + ch) + 2] = HSUM(sum2[ch]);
     }
 }
+
+
+#else /* quasi-Monte Carlo */
+
+/* Quasi-Monte Carlo: the lanes of a work-item are W of the QMC_STREAMS scrambles, which all take
+ * the same sample indices, so the Sobol point is built once for all lanes and scrambled per lane.
+ * Work-item g: point g / launch_blocks, block b = block0 + g % launch_blocks: streams
+ * [(b / blocks_per_stream) W, + W) (lane l: stream + l), samples [j L, j L + L) of each with
+ * j = b % blocks_per_stream and L = block_len, a power of two (at most 1024): the block's indices
+ * j L ^ gray(t), t = 0 .. L - 1, are its aligned range in Gray-code order (the same points), so
+ * that one XOR per dimension (column ctz(t) of the generator matrix) steps to the next point.
+ * Samples at or past `samples` are left out. Per lane and channel the block writes K, D, Q (as
+ * albedo_blocks) at out[((CHANNELS g + c) 3 + 0, 1, 2) W + l]. */
+__kernel void albedo_qmc(const global real_t *P, Tables TABLES, const global real_t *WO, const ulong npoints,
+                         const ulong point0, const uint block0, const uint launch_blocks,
+                         const uint samples, const uint seed_lo, const uint seed_hi,
+                         const uint blocks_per_stream, const uint block_len, global real_t *out)
+{
+    ulong g = get_global_id(0);
+    ulong local_point = g / launch_blocks;
+    uint block = block0 + (uint)(g % launch_blocks);
+    if (local_point >= npoints) return;
+    uint point = (uint)(point0 + local_point);
+    Params p = splat_params(P, TABLES, npoints, local_point);
+    vec3 wo = v3((realN)WO[local_point], (realN)WO[npoints + local_point], (realN)WO[2 * npoints + local_point]);
+    uintN stream = (uintN)((block / blocks_per_stream) * W) + LANE_IDS;
+    uint first = (block % blocks_per_stream) * block_len;
+    uintN seed[4], x[4];
+    for (uint d = 0; d < 4; ++d) {
+        seed[d] = sobol_seed(seed_lo, seed_hi, point, stream, d);
+        uint xd = 0;                                   /* sobol_rev(first, d), bit by set bit */
+        for (uint b = first; b; b &= b - 1)
+            xd ^= SOBOL_VR[d][31 - clz(b & (0u - b))];
+        x[d] = (uintN)xd;
+    }
+    realN sum[CHANNELS], sum2[CHANNELS], shift[CHANNELS];
+    for (int c = 0; c < CHANNELS; ++c)
+        sum[c] = sum2[c] = 0;
+    for (uint t = 0; t < block_len; ++t) {
+        if (t > 0) {
+            uint j = 31 - clz(t & (0u - t));                  /* ctz(t): gray(t) ^ gray(t - 1) */
+            for (uint d = 0; d < ESTIMATOR_DIMS; ++d)
+                x[d] ^= (uintN)SOBOL_VR[d][j];
+        }
+        rand4 u = {sobol_scrambled(x[0], seed[0]), sobol_scrambled(x[1], seed[1]),
+                   ESTIMATOR_DIMS > 2 ? sobol_scrambled(x[2], seed[2]) : (realN)0.5,
+                   ESTIMATOR_DIMS > 3 ? sobol_scrambled(x[3], seed[3]) : (realN)0.5};
+        spec e = albedo_estimate(&p, wo, u);
+        if (t == 0)
+            for (int ch = 0; ch < CHANNELS; ++ch)
+                shift[ch] = e.c[ch];
+        maskN m = TO_MASK((uintN)(first + (t ^ (t >> 1))) < (uintN)samples);
+        for (int ch = 0; ch < CHANNELS; ++ch) {
+            realN v = sel((realN)0, e.c[ch] - shift[ch], m);
+            sum[ch] += v;
+            sum2[ch] += v * v;
+        }
+    }
+    for (int ch = 0; ch < CHANNELS; ++ch) {
+        global real_t *o = out + (CHANNELS * g + ch) * 3 * W;
+        VSTORE(shift[ch], o);
+        VSTORE(sum[ch], o + W);
+        VSTORE(sum2[ch], o + 2 * W);
+    }
+}
+
+#endif /* RNG_PHILOX */
 
 #endif /* KERNELS_ALBEDO */
 

@@ -5,9 +5,10 @@
  *
  * - Philox4x32-10 (Salmon et al., "Parallel random numbers: as easy as 1, 2, 3", SC 2011):
  *   counter (sample, point, stream, 0), key (seed_lo, seed_hi); four 32-bit outputs.
- * - Owen-scrambled Sobol (Burley, "Practical hash-based Owen scrambling", JCGT 2020):
- *   the index is shuffled by a nested uniform scramble, then each of the first four
- *   Sobol dimensions (Joe-Kuo direction numbers) is scrambled with its own seed.
+ * - Owen-scrambled Sobol (Burley, "Practical hash-based Owen scrambling", JCGT 2020, with
+ *   Vegdahl's hash): each of the first four Sobol dimensions (Joe-Kuo direction numbers) is
+ *   scrambled with its own seed, keyed by (seed, point, stream); the index is not shuffled
+ *   (see rand_sobol).
  */
 #ifndef CLBRDF_RNG_H
 #define CLBRDF_RNG_H
@@ -89,30 +90,34 @@ inline rand4 rand_philox(uintN sample, uint point, uint stream, uint seed_lo, ui
     return r;
 }
 
-/* Sobol generator matrices, dimensions 0-3 (column j: the contribution of index bit j). */
-__constant uint SOBOL_V[4][32] = {
-    {0x80000000u, 0x40000000u, 0x20000000u, 0x10000000u, 0x08000000u, 0x04000000u, 0x02000000u, 0x01000000u,
-     0x00800000u, 0x00400000u, 0x00200000u, 0x00100000u, 0x00080000u, 0x00040000u, 0x00020000u, 0x00010000u,
-     0x00008000u, 0x00004000u, 0x00002000u, 0x00001000u, 0x00000800u, 0x00000400u, 0x00000200u, 0x00000100u,
-     0x00000080u, 0x00000040u, 0x00000020u, 0x00000010u, 0x00000008u, 0x00000004u, 0x00000002u, 0x00000001u},
-    {0x80000000u, 0xc0000000u, 0xa0000000u, 0xf0000000u, 0x88000000u, 0xcc000000u, 0xaa000000u, 0xff000000u,
-     0x80800000u, 0xc0c00000u, 0xa0a00000u, 0xf0f00000u, 0x88880000u, 0xcccc0000u, 0xaaaa0000u, 0xffff0000u,
-     0x80008000u, 0xc000c000u, 0xa000a000u, 0xf000f000u, 0x88008800u, 0xcc00cc00u, 0xaa00aa00u, 0xff00ff00u,
-     0x80808080u, 0xc0c0c0c0u, 0xa0a0a0a0u, 0xf0f0f0f0u, 0x88888888u, 0xccccccccu, 0xaaaaaaaau, 0xffffffffu},
-    {0x80000000u, 0xc0000000u, 0x60000000u, 0x90000000u, 0xe8000000u, 0x5c000000u, 0x8e000000u, 0xc5000000u,
-     0x68800000u, 0x9cc00000u, 0xee600000u, 0x55900000u, 0x80680000u, 0xc09c0000u, 0x60ee0000u, 0x90550000u,
-     0xe8808000u, 0x5cc0c000u, 0x8e606000u, 0xc5909000u, 0x6868e800u, 0x9c9c5c00u, 0xeeee8e00u, 0x5555c500u,
-     0x8000e880u, 0xc0005cc0u, 0x60008e60u, 0x9000c590u, 0xe8006868u, 0x5c009c9cu, 0x8e00eeeeu, 0xc5005555u},
-    {0x80000000u, 0xc0000000u, 0x20000000u, 0x50000000u, 0xf8000000u, 0x74000000u, 0xa2000000u, 0x93000000u,
-     0xd8800000u, 0x25400000u, 0x59e00000u, 0xe6d00000u, 0x78080000u, 0xb40c0000u, 0x82020000u, 0xc3050000u,
-     0x208f8000u, 0x51474000u, 0xfbea2000u, 0x75d93000u, 0xa0858800u, 0x914e5400u, 0xdbe79e00u, 0x25db6d00u,
-     0x58800080u, 0xe54000c0u, 0x79e00020u, 0xb6d00050u, 0x800800f8u, 0xc00c0074u, 0x200200a2u, 0x50050093u}};
+/* Sobol generator matrices of dimensions 0-3 (Joe & Kuo's direction numbers), bit-reversed:
+ * column j, the contribution of index bit j, holds the direction number v_j with its bits
+ * reversed (bit k of the column is bit 31 - k of v_j). A point is built reversed, scrambled there
+ * and reversed once (sobol_scrambled). */
+__constant uint SOBOL_VR[4][32] = {
+    {0x00000001u, 0x00000002u, 0x00000004u, 0x00000008u, 0x00000010u, 0x00000020u, 0x00000040u, 0x00000080u,
+     0x00000100u, 0x00000200u, 0x00000400u, 0x00000800u, 0x00001000u, 0x00002000u, 0x00004000u, 0x00008000u,
+     0x00010000u, 0x00020000u, 0x00040000u, 0x00080000u, 0x00100000u, 0x00200000u, 0x00400000u, 0x00800000u,
+     0x01000000u, 0x02000000u, 0x04000000u, 0x08000000u, 0x10000000u, 0x20000000u, 0x40000000u, 0x80000000u},
+    {0x00000001u, 0x00000003u, 0x00000005u, 0x0000000fu, 0x00000011u, 0x00000033u, 0x00000055u, 0x000000ffu,
+     0x00000101u, 0x00000303u, 0x00000505u, 0x00000f0fu, 0x00001111u, 0x00003333u, 0x00005555u, 0x0000ffffu,
+     0x00010001u, 0x00030003u, 0x00050005u, 0x000f000fu, 0x00110011u, 0x00330033u, 0x00550055u, 0x00ff00ffu,
+     0x01010101u, 0x03030303u, 0x05050505u, 0x0f0f0f0fu, 0x11111111u, 0x33333333u, 0x55555555u, 0xffffffffu},
+    {0x00000001u, 0x00000003u, 0x00000006u, 0x00000009u, 0x00000017u, 0x0000003au, 0x00000071u, 0x000000a3u,
+     0x00000116u, 0x00000339u, 0x00000677u, 0x000009aau, 0x00001601u, 0x00003903u, 0x00007706u, 0x0000aa09u,
+     0x00010117u, 0x0003033au, 0x00060671u, 0x000909a3u, 0x00171616u, 0x003a3939u, 0x00717777u, 0x00a3aaaau,
+     0x01170001u, 0x033a0003u, 0x06710006u, 0x09a30009u, 0x16160017u, 0x3939003au, 0x77770071u, 0xaaaa00a3u},
+    {0x00000001u, 0x00000003u, 0x00000004u, 0x0000000au, 0x0000001fu, 0x0000002eu, 0x00000045u, 0x000000c9u,
+     0x0000011bu, 0x000002a4u, 0x0000079au, 0x00000b67u, 0x0000101eu, 0x0000302du, 0x00004041u, 0x0000a0c3u,
+     0x0001f104u, 0x0002e28au, 0x000457dfu, 0x000c9baeu, 0x0011a105u, 0x002a7289u, 0x0079e7dbu, 0x00b6dba4u,
+     0x0100011au, 0x030002a7u, 0x0400079eu, 0x0a000b6du, 0x1f001001u, 0x2e003003u, 0x45004004u, 0xc900a00au}};
 
-inline uintN sobol_dim(uintN index, int dim)
+/* Dimension d of Sobol point `index`, bit-reversed. */
+inline uintN sobol_rev(uintN index, int d)
 {
     uintN x = (uintN)0;
     for (int j = 0; j < 32; ++j)
-        x ^= (uintN)SOBOL_V[dim][j] & (uintN)0 - ((index >> (uint)j) & (uintN)1);
+        x ^= (uintN)SOBOL_VR[d][j] & ((uintN)0 - ((index >> (uint)j) & (uintN)1));
     return x;
 }
 
@@ -125,38 +130,56 @@ inline uintN reverse_bits(uintN x)
     return (x >> 16) | (x << 16);
 }
 
-/* Burley 2020, listing 2: the Laine-Karras permutation with better constants, applied in
- * bit-reversed order, is a nested uniform (Owen) scramble. */
-inline uintN nested_uniform_scramble(uintN x, uint seed)
+/* A bit-reversed Sobol coordinate xr, Owen-scrambled (nested uniform scramble) with `seed`, as a
+ * real in (0, 1). In bit-reversed order a permutation whose output bit k depends only on input
+ * bits 0..k is a nested uniform scramble (Burley 2020); this one is N. Vegdahl's hash ("Building
+ * a better LK hash", 2021). Burley's listing 2 hash (x += seed, then x ^= x * c for four
+ * constants) leaves the low-order digits of the first 2^m points poorly randomised: on unshuffled
+ * points its estimates were biased (GGX dielectric, cosine estimator, mu 0.05, 2^18 samples:
+ * -2.1e-5 +- 2.6e-6 over 100 seeds; this hash -3.7e-6 +- 3.0e-6; tests/test_qmc.py). The bits
+ * are then put back in order. */
+inline realN sobol_scrambled(uintN xr, uintN seed)
 {
-    x = reverse_bits(x);
-    x += (uintN)seed;
-    x ^= x * (uintN)0x6c50b47cu;
-    x ^= x * (uintN)0xb82f1e52u;
-    x ^= x * (uintN)0xc7afe638u;
-    x ^= x * (uintN)0x8d22f6e6u;
-    return reverse_bits(x);
+    uintN x = xr;
+    x ^= x * (uintN)0x3d20adeau;
+    x += seed;
+    x *= (seed >> 16) | (uintN)1;
+    x ^= x * (uintN)0x05526c56u;
+    x ^= x * (uintN)0x53a22864u;
+    return bits_to_unit(reverse_bits(x));
 }
 
-inline uint hash_u32(uint x)
+inline uintN hash_u32(uintN x)
 {
     /* lowbias32 (C. Wellons) */
-    x ^= x >> 16; x *= 0x7feb352du;
-    x ^= x >> 15; x *= 0x846ca68bu;
+    x ^= x >> 16; x *= (uintN)0x7feb352du;
+    x ^= x >> 15; x *= (uintN)0x846ca68bu;
     x ^= x >> 16;
     return x;
 }
 
-inline uint hash_combine(uint seed, uint v) { return seed ^ (v + 0x9e3779b9u + (seed << 6) + (seed >> 2)); }
+inline uintN hash_combine(uintN seed, uintN v)
+{
+    return seed ^ (v + (uintN)0x9e3779b9u + (seed << 6) + (seed >> 2));
+}
 
+/* The scramble seed of dimension d of the sequence (seed, point, stream). */
+inline uintN sobol_seed(uint seed_lo, uint seed_hi, uint point, uintN stream, uint d)
+{
+    uintN s = hash_combine(hash_combine((uintN)hash_u32((uintN)seed_lo), (uintN)seed_hi), (uintN)point);
+    return hash_combine(hash_u32(hash_combine(s, stream)), (uintN)d);
+}
+
+/* Point `sample` of the Owen-scrambled Sobol sequence (seed, point, stream), dimensions 0-3. The
+ * samples are not shuffled: any 2^m consecutive ones aligned at a multiple of 2^m are a
+ * (0, m, 2)-net in dimensions (0, 1) and stratified in each dimension. The albedo kernel visits
+ * them in Gray-code order (the same points). */
 inline rand4 rand_sobol(uintN sample, uint point, uint stream, uint seed_lo, uint seed_hi)
 {
-    uint s = hash_u32(hash_combine(hash_combine(hash_combine(hash_u32(seed_lo), seed_hi), point), stream));
-    uintN i = nested_uniform_scramble(sample, s);
-    rand4 r = {bits_to_unit(nested_uniform_scramble(sobol_dim(i, 0), hash_combine(s, 0u))),
-               bits_to_unit(nested_uniform_scramble(sobol_dim(i, 1), hash_combine(s, 1u))),
-               bits_to_unit(nested_uniform_scramble(sobol_dim(i, 2), hash_combine(s, 2u))),
-               bits_to_unit(nested_uniform_scramble(sobol_dim(i, 3), hash_combine(s, 3u)))};
+    rand4 r = {sobol_scrambled(sobol_rev(sample, 0), sobol_seed(seed_lo, seed_hi, point, (uintN)stream, 0)),
+               sobol_scrambled(sobol_rev(sample, 1), sobol_seed(seed_lo, seed_hi, point, (uintN)stream, 1)),
+               sobol_scrambled(sobol_rev(sample, 2), sobol_seed(seed_lo, seed_hi, point, (uintN)stream, 2)),
+               sobol_scrambled(sobol_rev(sample, 3), sobol_seed(seed_lo, seed_hi, point, (uintN)stream, 3))};
     return r;
 }
 
