@@ -198,3 +198,23 @@ def test_every_estimator_matches_reference(name, estimator, qmc):
 
 
 Z_ESTIMATORS = float(sps.norm.isf(sidak(1e-3, 2 * len(ESTIMATORS) * len(clbrdf.MODELS)) / 2))
+
+
+# the quadrature estimator in every configuration: each mixture sampler's lobes (MODEL_lobe_ends)
+# must match its choice of lobe, or E is off by the lobes' difference
+QUAD_TABLE_DG1 = {"gtr": 2e-4, "sgd": 1e-4, "exppow": 1e-5, "holzschuch_pacanowski": 1e-5}
+
+
+@tiered(set(), ALBEDO_CASES)     # slow tier: the default run has tests/test_quadrature.py
+def test_quadrature_matches_reference(name, cid, kw):
+    """Double precision, mu = 0.5 and 0.9, tol 1e-6: |E - E_ref| <= 1e-6 + the reference's error
+    + 3 |dG1| E for the tabulated models (tests/test_quadrature.py), every channel."""
+    m = _model(name, kw)
+    ref = reference(m)
+    for mu in (0.5, 0.9):
+        r = clbrdf.albedo(m, mu, estimator="quadrature", tol=1e-6)
+        e_ref, err = ref.albedo(mu, tol=1e-9)
+        e = np.ravel(r.albedo)
+        bound = 1e-6 + err + 3 * QUAD_TABLE_DG1.get(name, 0.0) * np.abs(np.ravel(e_ref))
+        assert np.all(np.ravel(r.stderr) <= 1e-6)
+        assert np.all(np.abs(e - np.ravel(e_ref)) <= bound), (mu, e, e_ref, e - np.ravel(e_ref))
