@@ -426,6 +426,27 @@ def cmd_table(args) -> int:
     return 0
 
 
+def cmd_accuracy(args) -> int:
+    from . import accuracy
+    from .runtime import check_int
+    names = [_spec(n).name for n in args.model] or None
+    check_int("max-log2-samples", args.max_log2_samples, 6, 30)
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ParameterError(f"--out {args.out!r} is a file; give a directory")
+    precisions = ("single", "double") if args.precision == "both" else (args.precision,)
+
+    def show(r):
+        print(f"{r['model']:22s} {r['precision']:6s} {accuracy.label(r['estimator'], r['rng'] == 'sobol'):15s} "
+              f"{r['samples']:>12.0f} per point {r['seconds']:8.3f} s  max error {r['max']:.2e}  "
+              f"rms {r['rms']:.2e}", flush=True)
+    command = " ".join(["clbrdf"] + [_quote(a) for a in args.argv])
+    accuracy.chart(names, out, max_log2=args.max_log2_samples, precisions=precisions,
+                   command=command, progress=None if args.quiet else show)
+    print(f"wrote {out / 'accuracy.csv'}, {out / 'README.md'} and one PNG per model")
+    return 0
+
+
 def _quad_args(args) -> dict:
     """--tol and --max-evals for the quadrature estimator; refused with the others."""
     given = {k: v for k, v in (("tol", args.tol), ("max_evals", args.max_evals)) if v is not None}
@@ -539,6 +560,25 @@ def build_parser() -> argparse.ArgumentParser:
     sampling_args(p)
     p.add_argument("--out", "-o", required=True, metavar="FILE", help="output .npz or .csv")
     p.set_defaults(func=cmd_table)
+
+    p = sub.add_parser("accuracy", parents=[dev], help="chart error against cost for every "
+                       "albedo estimator",
+                       description="For one model per family (or the MODELs given) at fixed "
+                                   "directions and parameters: the error of E against the float64 "
+                                   "reference, against samples per point and wall time, for every "
+                                   "estimator (uniform, cosine, brdf, mis with Philox and Sobol "
+                                   "points; quadrature), single and double precision. Writes "
+                                   "DIR/accuracy.csv, DIR/MODEL.png and DIR/README.md (the fastest "
+                                   "estimator per target error).")
+    p.add_argument("model", metavar="MODEL", nargs="*", help=f"models (default: all of {models})")
+    p.add_argument("--out", "-o", default="accuracy", metavar="DIR",
+                   help="output directory (default ./accuracy; docs/accuracy in the repository)")
+    p.add_argument("--max-log2-samples", type=int, default=20, metavar="K",
+                   help="largest Monte Carlo count per point, 2^K (default 20)")
+    p.add_argument("--precision", choices=PRECISIONS + ("both",), default="both",
+                   help="kernel arithmetic (default both)")
+    p.add_argument("--quiet", "-q", action="store_true", help="no line per run")
+    p.set_defaults(func=cmd_accuracy)
 
     p = sub.add_parser("check", parents=[dev], help="property checks of one configuration",
                        description="Run the conformance checks on the device for one "

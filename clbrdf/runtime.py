@@ -246,6 +246,7 @@ def run_albedo(m, shape, wo_rows, *, estimator: str, samples: int, seed: int, qm
 # Deterministic quadrature (kernels/integrators.cl, quadrature_panels)
 
 QUAD_ORDER = 8              # Gauss-Legendre order per axis
+QUAD_CHECK_ORDER = 7        # Gauss-Lobatto order of the error check
 QUAD_FIRST_PANELS = 16      # panels per axis at the start, equal in v (the kernel's Sidi map
                             # puts the nodes near the edges of the square); 8 missed a kink
                             # (GGX alpha 0.5, mu 0.5: 2.9e-6 off, estimated 8e-8)
@@ -253,25 +254,51 @@ QUAD_MAX_EVALS = 1 << 24    # integrand evaluations per point, at most (default)
 QUAD_GROUP = 4096           # points refined together (host memory stays flat in the points)
 
 
+def _lobatto(n):
+    """Gauss-Lobatto nodes and weights on [0, 1] (n points, both ends included)."""
+    from numpy.polynomial import legendre as L
+    p = L.Legendre.basis(n - 1)
+    x = np.concatenate([[-1.0], np.sort(p.deriv().roots().real), [1.0]])
+    w = 2 / (n * (n - 1) * p(x) ** 2)
+    return (x + 1) / 2, w / 2
+
+
+def _gauss(n):
+    x, w = np.polynomial.legendre.leggauss(n)
+    return (x + 1) / 2, w / 2
+
+
 def quad_rule(width: int) -> np.ndarray:
-    """(4, nodes) rows x, y, w_high, w_low on [0,1]^2: the higher rule is the QUAD_ORDER^2
-    Gauss-Legendre product rule on each quarter of the panel, the lower one the same rule on the
-    whole panel. Their difference estimates the whole-panel rule's error, which bounds the
-    quarters' where the integrand is smooth; comparing two orders on the same panel instead
-    missed a kink along a line (GGX alpha 0.5 at normal incidence: error 4.5e-7 estimated at
-    1e-8, both orders off alike). Nodes are padded to a multiple of ``width`` with zero weights."""
-    x, w = np.polynomial.legendre.leggauss(QUAD_ORDER)
-    x, w = (x + 1) / 2, w / 2
-    X, Y = (a.ravel() for a in np.meshgrid(x, x, indexing="ij"))
-    Wt = np.outer(w, w).ravel()
-    zero = np.zeros_like(Wt)
-    cols = [np.stack([X, Y, zero, Wt])]
+    """(5, nodes) rows x, y, w_fine, w_coarse, w_check on [0,1]^2: the fine rule is the
+    QUAD_ORDER^2 Gauss-Legendre product rule on each quarter of the panel, the coarse one the same
+    rule on the whole panel, the check a 7 x 7 Gauss-Lobatto rule on the whole panel (its nodes
+    include the panel's edges). The error estimate is the larger difference between the fine rule
+    and the other two. Each addition answers a case where the estimate was fooled:
+    - comparing two Gauss orders on the same panel missed a curved kink (GGX alpha 0.5 at normal
+      incidence: 4.5e-7 off, estimated 1e-8);
+    - the whole panel against its quarters alone missed a kink running along a panel row, where
+      both err alike in every panel of the row (GGX alpha 1, mu 0.81, whose weight in the
+      sampler's square depends on u1 alone and drops to 0 along a line: 1.05e-4 off, estimated
+      3.1e-6), and a sliver of the integrand between a panel's edge and its first Gauss node
+      (GGX alpha 1, mu 0.368: weight > 0 for u1 < 0.73113, a panel edge at 0.7306: 2.3e-6 off,
+      estimated 2e-13), which only nodes on the edges see.
+    Nodes are padded to a multiple of ``width`` with zero weights."""
+    cols = []
+
+    def tensor(x, w, x0, y0, size, which, scale):
+        X, Y = (a.ravel() for a in np.meshgrid(x, x, indexing="ij"))
+        ws = np.zeros((3, X.size))
+        ws[which] = np.outer(w, w).ravel() * scale
+        cols.append(np.concatenate([np.stack([x0 + size * X, y0 + size * Y]), ws]))
+    xg, wg = _gauss(QUAD_ORDER)
     for a in (0.0, 0.5):
         for b in (0.0, 0.5):
-            cols.append(np.stack([a + X / 2, b + Y / 2, Wt / 4, zero]))
+            tensor(xg, wg, a, b, 0.5, 0, 0.25)
+    tensor(xg, wg, 0.0, 0.0, 1.0, 1, 1.0)
+    tensor(*_lobatto(QUAD_CHECK_ORDER), 0.0, 0.0, 1.0, 2, 1.0)
     r = np.concatenate(cols, axis=1)
     pad = -r.shape[1] % width
-    return np.concatenate([r, np.tile([[0.5], [0.5], [0.0], [0.0]], (1, pad))], axis=1)
+    return np.concatenate([r, np.tile([[0.5], [0.5], [0.0], [0.0], [0.0]], (1, pad))], axis=1)
 
 
 class _Panels:
@@ -324,7 +351,7 @@ def run_quadrature(m, shape, wo_rows, *, tol: float, max_evals: int = QUAD_MAX_E
     wo_full = m._soa(shape, wo_rows, npts)
     rule = np.ascontiguousarray(quad_rule(m.width).astype(m.dtype))
     nodes = rule.shape[1]
-    per_panel = 5 * QUAD_ORDER ** 2
+    per_panel = 5 * QUAD_ORDER ** 2 + QUAD_CHECK_ORDER ** 2
     brule = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=rule)
     min_side = 2.0 ** (-20 if m.dtype == np.float32 else -40)
     E = np.zeros((npts, nch))

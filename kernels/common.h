@@ -26,10 +26,12 @@
 #define REAL double
 #define MASK long
 #define REAL_EPS DBL_EPSILON
+#define REAL_MIN DBL_MIN
 #else
 #define REAL float
 #define MASK int
 #define REAL_EPS FLT_EPSILON
+#define REAL_MIN FLT_MIN
 #endif
 
 typedef REAL real_t;

@@ -342,10 +342,10 @@ __kernel void albedo_qmc(const global real_t *P, Tables TABLES, const global rea
  * an edge of the square at any scale (a lobe's tail squeezed into 1 - u < alpha^2, the pole at
  * u = 0) are reached by the nodes (GGX alpha 1e-3: an E of 1 - 7e-6 was 1 - 1e-10 without it).
  * Work-item g integrates panel g: v0 in [BOX[g], BOX[n + g]), v1 in [BOX[2n + g], BOX[3n + g])
- * (n = npanels) of point PT[g]. RULE holds `nodes` entries (a multiple of W) as four rows: x, y
- * on [0,1]^2 and the weights of two tensor Gauss-Legendre rules of different orders (each entry
- * belongs to one rule; its other weight is 0). Per channel the panel writes the higher-order
- * rule's value at out[2 (CHANNELS g + c)] and |higher - lower| at + 1, its error estimate. */
+ * (n = npanels) of point PT[g]. RULE holds `nodes` entries (a multiple of W) as five rows: x, y
+ * on [0,1]^2 and the weights of three tensor rules (each entry belongs to one rule; its other
+ * weights are 0): the fine rule, and two coarser ones (clbrdf/runtime.py, quad_rule). Per channel the panel writes the fine rule's value at out[2 (CHANNELS g + c)] and
+ * the larger of its differences from the coarse rules at + 1, its error estimate. */
 inline realN sidi4(realN v, realN *jac)
 {
     realN w = 1 - v, v3 = v * v * v, w3 = w * w * w, a = v3 * v, b = w3 * w, d = a + b;
@@ -369,16 +369,20 @@ __kernel void quadrature_panels(const global real_t *P, Tables TABLES, const glo
 #endif
     real_t s0 = BOX[g], ds = BOX[npanels + g] - s0;
     real_t t0 = BOX[2 * npanels + g], dt = BOX[3 * npanels + g] - t0;
-    realN ph[CHANNELS], pl[CHANNELS];
+    realN ph[CHANNELS], pl[CHANNELS], pm[CHANNELS];
     for (int ch = 0; ch < CHANNELS; ++ch)
-        ph[ch] = pl[ch] = 0;
+        ph[ch] = pl[ch] = pm[ch] = 0;
     for (uint k = 0; k < nodes; k += W) {
         realN j0, j1;
         rand4 u = {sidi4(s0 + ds * VLOAD(RULE + k), &j0), sidi4(t0 + dt * VLOAD(RULE + nodes + k), &j1),
                    (realN)0.5, (realN)0.5};
-        u.u0 = fmin(u.u0, (realN)1 - REAL_EPS / 2);     /* u < 1, as from the generators */
-        u.u1 = fmin(u.u1, (realN)1 - REAL_EPS / 2);
-        realN wh = VLOAD(RULE + 2 * nodes + k) * j0 * j1, wl = VLOAD(RULE + 3 * nodes + k) * j0 * j1;
+        /* 0 < u < 1 as from the generators; the edges of the square (v = 0, 1: nodes of the
+         * Lobatto rule) have Jacobian 0 and are left out below */
+        u.u0 = clamp(u.u0, (realN)REAL_MIN, (realN)1 - REAL_EPS / 2);
+        u.u1 = clamp(u.u1, (realN)REAL_MIN, (realN)1 - REAL_EPS / 2);
+        realN jj = j0 * j1;
+        realN wh = VLOAD(RULE + 2 * nodes + k) * jj, wl = VLOAD(RULE + 3 * nodes + k) * jj,
+              wm = VLOAD(RULE + 4 * nodes + k) * jj;
 #if BRDF(SAMPLE_DIMS) > 2
         spec e;
         for (int ch = 0; ch < CHANNELS; ++ch)
@@ -396,15 +400,17 @@ __kernel void quadrature_panels(const global real_t *P, Tables TABLES, const glo
         spec e = BRDF(sample)(&p, wo, u).weight;
 #endif
         for (int ch = 0; ch < CHANNELS; ++ch) {
+            e.c[ch] = sel((realN)0, e.c[ch], jj > 0);
             ph[ch] += wh * e.c[ch];
             pl[ch] += wl * e.c[ch];
+            pm[ch] += wm * e.c[ch];
         }
     }
     real_t area = ds * dt;
     for (int ch = 0; ch < CHANNELS; ++ch) {
-        real_t a = HSUM(ph[ch]) * area, b = HSUM(pl[ch]) * area;
+        real_t a = HSUM(ph[ch]) * area, b = HSUM(pl[ch]) * area, c = HSUM(pm[ch]) * area;
         out[2 * (CHANNELS * g + ch)] = a;
-        out[2 * (CHANNELS * g + ch) + 1] = fabs(a - b);
+        out[2 * (CHANNELS * g + ch) + 1] = fmax(fabs(a - b), fabs(a - c));
     }
 }
 

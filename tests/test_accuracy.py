@@ -1,0 +1,47 @@
+"""clbrdf accuracy: the speed-against-accuracy chart on a small job (two models, counts up to
+2^10, single precision): its files, the rows' contents against the reference, and the pick of
+the fastest estimator per target."""
+import csv
+
+import numpy as np
+
+from clbrdf import accuracy
+from cliutil import run_inprocess
+
+
+def test_accuracy_command_writes_chart_csv_and_summary(tmp_path):
+    r = run_inprocess("accuracy", "lambert", "ggx", "--out", tmp_path, "--max-log2-samples", 9,
+                      "--precision", "single", "--quiet")
+    assert r.returncode == 0, r.stderr
+    names = sorted(p.name for p in tmp_path.iterdir())
+    assert names == ["README.md", "accuracy.csv", "ggx.png", "lambert.png"]
+    assert (tmp_path / "ggx.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    rows = list(csv.DictReader(open(tmp_path / "accuracy.csv")))
+    kinds = {(x["model"], x["estimator"], x["rng"]) for x in rows}
+    for model in ("lambert", "ggx"):
+        for est in ("uniform", "cosine", "brdf", "mis"):
+            assert {(model, est, "philox"), (model, est, "sobol")} <= kinds
+        assert (model, "quadrature", "none") in kinds
+    lam = [x for x in rows if x["model"] == "lambert"]
+    # a Lambertian's cosine estimate is exact: f cos / pdf = kd for every sample
+    assert all(float(x["max"]) < 1e-6 for x in lam if x["estimator"] == "cosine")
+    q = [x for x in rows if x["model"] == "ggx" and x["estimator"] == "quadrature"]
+    tols = accuracy.QUAD_TOLS["single"]
+    for x, tol in zip(q, tols):
+        assert float(x["max"]) <= tol                 # the quadrature meets its tolerance here
+    mc = sorted((float(x["samples"]), float(x["rms"])) for x in rows
+                if x["model"] == "ggx" and x["estimator"] == "uniform" and x["rng"] == "philox")
+    assert mc[-1][1] < mc[0][1]                       # more samples, less error
+    text = (tmp_path / "README.md").read_text()
+    assert "| ggx | single |" in text and "## Recommendation" in text
+
+
+def test_best_picks_the_fastest_and_extrapolates_monte_carlo():
+    rows = [{"estimator": "brdf", "rng": "philox", "samples": 1024, "seconds": 1.0, "max": 1e-3},
+            {"estimator": "brdf", "rng": "philox", "samples": 4096, "seconds": 4.0, "max": 5e-4},
+            {"estimator": "quadrature", "rng": "none", "samples": 1e5, "seconds": 0.5, "max": 1e-5}]
+    b = accuracy.best(rows, 1e-4)
+    assert b[0] == ("quadrature", 0.5, False)
+    k, s, x = b[1]
+    assert k == "brdf philox" and x and np.isclose(s, 4.0 * (5e-4 / 1e-4) ** 2)
+    assert accuracy.best(rows, 1e-3)[0] == ("quadrature", 0.5, False)
