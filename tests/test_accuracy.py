@@ -29,9 +29,11 @@ def test_accuracy_command_writes_chart_csv_and_summary(tmp_path):
     tols = accuracy.QUAD_TOLS["single"]
     for x, tol in zip(q, tols):
         assert float(x["max"]) <= tol                 # the quadrature meets its tolerance here
+    # importance sampling: more samples, less error (uniform sampling of the sharp lobe, alpha
+    # 0.01, is off by 5.7 at 2^9 samples and by 0.69 at 2^5, which never hit the lobe)
     mc = sorted((float(x["samples"]), float(x["rms"])) for x in rows
-                if x["model"] == "ggx" and x["estimator"] == "uniform" and x["rng"] == "philox")
-    assert mc[-1][1] < mc[0][1]                       # more samples, less error
+                if x["model"] == "ggx" and x["estimator"] == "brdf" and x["rng"] == "philox")
+    assert mc[-1][1] < 0.25 * mc[0][1]
     text = (tmp_path / "README.md").read_text()
     assert "| ggx | single |" in text and "## Recommendation" in text
 
