@@ -203,18 +203,31 @@ Z_ESTIMATORS = float(sps.norm.isf(sidak(1e-3, 2 * len(ESTIMATORS) * len(clbrdf.M
 # the quadrature estimator in every configuration: each mixture sampler's lobes (MODEL_lobe_ends)
 # must match its choice of lobe, or E is off by the lobes' difference
 QUAD_TABLE_DG1 = {"gtr": 2e-4, "sgd": 1e-4, "exppow": 1e-5, "holzschuch_pacanowski": 1e-5}
+# configurations whose weight jumps to 0 where wi crosses the horizon (no masking term): 2^24
+# evaluations do not bring the error estimate to 1e-6 (1.5e-6 to 1.2e-5), though the value is
+# within 5e-7 of the reference; each must still stop short
+QUAD_SHORT = {("ggx", "masking=none"), ("beckmann", "masking=none"), ("exppow", "masking=none"),
+              ("gtr", "masking=none"), ("schlick", "directional=eq17"),
+              ("schlick", "directional=eq12"), ("schlick", "+p"), ("schlick", "+psi")}
 
 
 @tiered(set(), ALBEDO_CASES)     # slow tier: the default run has tests/test_quadrature.py
 def test_quadrature_matches_reference(name, cid, kw):
-    """Double precision, mu = 0.5 and 0.9, tol 1e-6: |E - E_ref| <= 1e-6 + the reference's error
-    + 3 |dG1| E for the tabulated models (tests/test_quadrature.py), every channel."""
+    """Double precision, mu = 0.5 and 0.9, tol 1e-6, every channel: |E - E_ref| within the
+    larger of tol and the error estimate, plus the reference's error and 3 |dG1| E for the
+    tabulated models (tests/test_quadrature.py); the estimate at most tol except in QUAD_SHORT,
+    where it must exceed it (and the RuntimeWarning says so)."""
+    import warnings
     m = _model(name, kw)
     ref = reference(m)
     for mu in (0.5, 0.9):
-        r = clbrdf.albedo(m, mu, estimator="quadrature", tol=1e-6)
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            r = clbrdf.albedo(m, mu, estimator="quadrature", tol=1e-6)
         e_ref, err = ref.albedo(mu, tol=1e-9)
-        e = np.ravel(r.albedo)
-        bound = 1e-6 + err + 3 * QUAD_TABLE_DG1.get(name, 0.0) * np.abs(np.ravel(e_ref))
-        assert np.all(np.ravel(r.stderr) <= 1e-6)
-        assert np.all(np.abs(e - np.ravel(e_ref)) <= bound), (mu, e, e_ref, e - np.ravel(e_ref))
+        e, est = np.ravel(r.albedo), np.ravel(r.stderr)
+        bound = np.maximum(est, 1e-6) + err + 3 * QUAD_TABLE_DG1.get(name, 0.0) * np.abs(np.ravel(e_ref))
+        assert np.all(np.abs(e - np.ravel(e_ref)) <= bound), (mu, e, e_ref, e - np.ravel(e_ref), est)
+        short = bool(np.any(est > 1e-6))
+        assert short == ((name, cid) in QUAD_SHORT), (mu, est)
+        assert short == any(issubclass(x.category, RuntimeWarning) for x in w)
