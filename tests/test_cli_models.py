@@ -30,7 +30,10 @@ def test_albedo_and_table_for_every_model(name, preset, tmp_path):
     assert np.all(np.isfinite(E)) and np.all(E >= 0) and np.all(E < 1.5), E
     assert np.all(np.isfinite(out["stderr"]))
     m = clbrdf.Model(name, preset=preset)
-    np.testing.assert_array_equal(E, clbrdf.albedo(m, [0.05, 0.5, 1.0], samples=8192).albedo)
+    # the command line's estimator when none is given: brdf with Sobol points (cli.RECOMMENDED)
+    assert out["estimator"] == "brdf" and out["qmc"] is True
+    np.testing.assert_array_equal(E, clbrdf.albedo(m, [0.05, 0.5, 1.0], samples=8192,
+                                                   qmc=True).albedo)
 
     f = tmp_path / "t.npz"
     r = run_cli("table", name, *extra, "--axis", "mu=0.25:1:4", "--samples", "2048", "--out", str(f))

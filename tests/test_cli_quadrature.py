@@ -48,11 +48,36 @@ def test_table_quadrature_metadata(tmp_path):
 
 
 @pytest.mark.parametrize("args, msg", [
-    (("--tol", "1e-5"), "--tol is for --estimator quadrature, not brdf"),
-    (("--max-evals", "100000"), "--max-evals is for --estimator quadrature"),
+    (("--estimator", "brdf", "--tol", "1e-5"), "--tol is for --estimator quadrature, not brdf"),
+    (("--estimator", "mis", "--max-evals", "100000"), "--max-evals is for --estimator quadrature"),
     (("--estimator", "quadrature", "--qmc"), "qmc=True is not valid with estimator='quadrature'"),
     (("--estimator", "quadrature", "--tol", "-1"), "tol=-1.0 is out of range"),
     (("--estimator", "quadrature", "--max-evals", "7"), "max_evals=7 is out of range")])
 def test_quadrature_refusals(args, msg):
     r = run_inprocess("albedo", "ggx", "--mu", "0.5", *args)
     assert r.returncode == 2 and msg in r.stderr, (r.returncode, r.stderr)
+
+
+def test_no_estimator_picks_the_recommended_one_and_says_so():
+    """Without --estimator: brdf with Sobol points (docs/accuracy/README.md), said on the output
+    and recorded (JSON: estimator, qmc, estimator_chosen); with --tol: the quadrature."""
+    r = run_inprocess("albedo", "ggx", "--mu", "0.5", "--json")
+    d = json.loads(r.stdout)
+    assert d["estimator"] == "brdf" and d["qmc"] is True and "docs/accuracy" in d["estimator_chosen"]
+    r = run_inprocess("albedo", "ggx", "--mu", "0.5")
+    assert "estimator brdf (qmc)" in r.stdout and "(no --estimator: brdf with Sobol points" in r.stdout
+    r = run_inprocess("albedo", "ggx", "--mu", "0.5", "--estimator", "brdf", "--json")
+    d = json.loads(r.stdout)
+    assert d["qmc"] is False and "estimator_chosen" not in d
+    r = run_inprocess("albedo", "ggx", "--mu", "0.5", "--tol", "1e-5", "--json")
+    d = json.loads(r.stdout)
+    assert d["estimator"] == "quadrature" and d["tol"] == 1e-5
+
+
+def test_table_without_estimator_uses_the_recommended_one(tmp_path):
+    out = tmp_path / "t.npz"
+    r = run_inprocess("table", "lambert", "--axis", "mu=0.2:1:2", "--samples", 4096, "--out", out)
+    assert r.returncode == 0, r.stderr
+    assert "brdf + QMC" in r.stdout and "(no --estimator: brdf with Sobol points" in r.stdout
+    meta = json.loads(str(np.load(out)["metadata"]))
+    assert meta["estimator"] == "brdf" and meta["qmc"] is True
