@@ -59,3 +59,18 @@ def test_qmc_does_not_depend_on_width(model_cache):
     for r in rs[1:]:
         np.testing.assert_allclose(r.albedo, rs[0].albedo, rtol=1e-13)
         np.testing.assert_allclose(r.stderr, rs[0].stderr, rtol=1e-9)
+
+
+def test_albedo_qmc_three_number_sampler_uses_documented_streams(model_cache):
+    """A sampler that picks its lobe with u2 (GGX with a Lambertian term): the brdf estimate per
+    scramble is the mean of Model.sample's weights at Model.random(qmc=True)'s numbers, so
+    dimension 2 of the Gray-code stepping is pinned too."""
+    m = model_cache("ggx", precision="double", alpha=0.3, kd=0.4, fresnel="schlick", f0=0.2)
+    seed, per = 5, 700
+    r = clbrdf.albedo(m, [0.45], estimator="brdf", samples=16 * per, seed=seed, qmc=True)
+    wo = np.array([np.sqrt(1 - 0.45 ** 2), 0.0, 0.45])
+    means = []
+    for s in range(16):
+        u = m.random(per, seed=seed, point=0, stream=s, qmc=True)
+        means.append(m.sample(np.broadcast_to(wo, (per, 3)), u)[1].mean())
+    np.testing.assert_allclose(r.albedo[0], np.mean(means), rtol=1e-12)
