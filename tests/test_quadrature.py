@@ -164,3 +164,21 @@ def test_quadrature_bad_arguments(kw, match, model_cache):
 def test_tol_is_refused_for_monte_carlo(model_cache):
     with pytest.raises(clbrdf.ParameterError, match="tol and max_evals are for estimator="):
         clbrdf.albedo(model_cache("ggx"), 0.5, estimator="brdf", tol=1e-6)
+
+
+def test_quadrature_host_memory_does_not_grow_with_points(model_cache):
+    """Points are refined QUAD_GROUP at a time: the peak of host allocations (tracemalloc, which
+    sees NumPy's) for 8 x QUAD_GROUP points that all run to max_evals is within 1.5x of that for
+    QUAD_GROUP points (plus the per-point results, 1 kB each at most)."""
+    import tracemalloc
+    peaks = []
+    for k in (runtime.QUAD_GROUP, 8 * runtime.QUAD_GROUP):
+        m = model_cache("ashikhmin_shirley", nu=np.linspace(80, 120, k))
+        tracemalloc.start()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            r = clbrdf.albedo(m, 0.02, estimator="quadrature", tol=1e-12, max_evals=1 << 20)
+        peaks.append(tracemalloc.get_traced_memory()[1])
+        tracemalloc.stop()
+        assert np.all(r.evaluations >= (1 << 20) - 4 * 405)   # every point ran to the cap
+    assert peaks[1] <= 1.5 * peaks[0] + 1024 * 8 * runtime.QUAD_GROUP, peaks
