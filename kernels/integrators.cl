@@ -344,8 +344,9 @@ __kernel void albedo_qmc(const global real_t *P, Tables TABLES, const global rea
  * Work-item g integrates panel g: v0 in [BOX[g], BOX[n + g]), v1 in [BOX[2n + g], BOX[3n + g])
  * (n = npanels) of point PT[g]. RULE holds `nodes` entries (a multiple of W) as five rows: x, y
  * on [0,1]^2 and the weights of three tensor rules (each entry belongs to one rule; its other
- * weights are 0): the fine rule, and two coarser ones (clbrdf/runtime.py, quad_rule). Per channel the panel writes the fine rule's value at out[2 (CHANNELS g + c)] and
- * the larger of its differences from the coarse rules at + 1, its error estimate. */
+ * weights are 0): the fine rule, and two coarser ones (clbrdf/runtime.py, quad_rule). Per
+ * channel the panel writes the fine rule's value at out[2 (CHANNELS g + c)] and the larger of
+ * its differences from the coarse rules at + 1, its error estimate. */
 inline realN sidi4(realN v, realN *jac)
 {
     realN w = 1 - v, v3 = v * v * v, w3 = w * w * w, a = v3 * v, b = w3 * w, d = a + b;
