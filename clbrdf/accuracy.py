@@ -17,7 +17,7 @@ recommendation drawn from them.
 from __future__ import annotations
 
 import csv
-import math
+import io
 import time
 import warnings
 from pathlib import Path
@@ -69,21 +69,17 @@ def references(name: str) -> dict:
 
 
 def _run(models, estimator, qmc, n):
-    """(E per case, seconds, samples per point used) for one estimator at count n."""
+    """(E per case, seconds, samples per point used) for one estimator at count n (the
+    quadrature: tolerance n)."""
+    kw = {"tol": n} if estimator == "quadrature" else {"qmc": qmc, "samples": n, "seed": 7}
     es, secs, used = {}, 0.0, []
     for cid, m in models.items():
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
-            if estimator == "quadrature":
-                t = time.perf_counter()
-                r = _albedo(m, estimator="quadrature", tol=n)
-                secs += time.perf_counter() - t
-                used.append(float(np.mean(r.evaluations)))
-            else:
-                t = time.perf_counter()
-                r = _albedo(m, estimator=estimator, qmc=qmc, samples=n, seed=7)
-                secs += time.perf_counter() - t
-                used.append(r.samples)
+            t = time.perf_counter()
+            r = _albedo(m, estimator=estimator, **kw)
+            secs += time.perf_counter() - t
+        used.append(float(np.mean(r.evaluations)) if estimator == "quadrature" else r.samples)
         es[cid] = np.asarray(r.albedo).reshape(len(MUS), -1)[:, 0]
     return es, secs, float(np.mean(used))
 
@@ -134,8 +130,9 @@ def best(rows: list[dict], target: float) -> list[tuple[str, float, bool]]:
     return sorted(out, key=lambda t: t[1])
 
 
-def plot(rows: list[dict], path: Path, name: str):
-    """Log-log chart: max and RMS error against samples per point and against wall time."""
+def plot(rows: list[dict], fileobj, name: str):
+    """Log-log chart (PNG to ``fileobj``): max and RMS error against samples per point and
+    against wall time."""
     from matplotlib.figure import Figure
     fig = Figure(figsize=(13, 9))
     axes = fig.subplots(2, 2)
@@ -167,7 +164,7 @@ def plot(rows: list[dict], path: Path, name: str):
     fig.suptitle(f"{name}: error of E against cost ({len(MUS)} mu x {len(cases(name))} "
                  f"parameter sets, float64 reference)")
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    fig.savefig(fileobj, dpi=90, format="png")
 
 
 def summary(all_rows: list[dict], command: str, seconds: float) -> str:
@@ -235,23 +232,40 @@ def summary_from_csv(path, command: str = "", seconds: float = 0.0) -> str:
 
 def chart(models=None, out="accuracy", *, max_log2: int = 20, precisions=("single", "double"),
           command: str = "clbrdf.accuracy.chart()", progress=None) -> Path:
-    """Measure and write accuracy.csv, MODEL.png and README.md to ``out``; returns ``out``."""
+    """Measure and write accuracy.csv, MODEL.png and README.md to ``out``; returns ``out``.
+    The files are written together once everything is measured (clbrdf.tables' staged writes:
+    a kill at any moment leaves the old files or the new ones)."""
     from .models import get_spec
+    from .tables import _Staged, _sync_close
     names = [get_spec(n).name for n in (models or list(CASES))]
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    all_rows = []
+    all_rows, charts = [], {}
     for name in names:
         ref = references(name)
         rows = []
         for prec in precisions:
             rows += measure(name, prec, max_log2, ref, progress)
-        plot(rows, out / f"{name}.png", name)
+        charts[name] = io.BytesIO()
+        plot(rows, charts[name], name)
         all_rows += rows
-    with open(out / "accuracy.csv", "w", newline="") as f:
+    staged = _Staged()
+    try:
+        for name, png in charts.items():
+            f = staged.open(out / f"{name}.png", "wb")
+            f.write(png.getvalue())
+            _sync_close(f)
+        f = staged.open(out / "accuracy.csv", "w")
         w = csv.DictWriter(f, fieldnames=FIELDS)
         w.writeheader()
         w.writerows(all_rows)
-    (out / "README.md").write_text(summary(all_rows, command, time.perf_counter() - t0))
+        _sync_close(f)
+        f = staged.open(out / "README.md", "w")
+        f.write(summary(all_rows, command, time.perf_counter() - t0))
+        _sync_close(f)
+        staged.commit()
+    except BaseException:
+        staged.discard()
+        raise
     return out

@@ -185,6 +185,22 @@ inline spec albedo_estimate(const Params *p, vec3 wo, rand4 u)
 #endif
 }
 
+/* Work-item g of an albedo launch: its point (point0 + g / launch_blocks, whose parameters and
+ * wo it loads) and block (block0 + g % launch_blocks); 0 for a padding work-item. */
+inline int albedo_work(const global real_t *P, Tables TABLES, const global real_t *WO,
+                       ulong npoints, ulong point0, uint block0, uint launch_blocks,
+                       Params *p, vec3 *wo, uint *point, uint *block)
+{
+    ulong g = get_global_id(0), local_point = g / launch_blocks;
+    if (local_point >= npoints) return 0;
+    *block = block0 + (uint)(g % launch_blocks);
+    *point = (uint)(point0 + local_point);
+    *p = splat_params(P, TABLES, npoints, local_point);
+    *wo = v3((realN)WO[local_point], (realN)WO[npoints + local_point],
+             (realN)WO[2 * npoints + local_point]);
+    return 1;
+}
+
 #if RNG_PHILOX
 
 /* Work-item g of a launch: point g / launch_blocks, block b = block0 + g % launch_blocks of the
@@ -201,12 +217,11 @@ __kernel void albedo_blocks(const global real_t *P, Tables TABLES, const global 
                             const uint blocks_per_stream, const uint block_len, global real_t *out)
 {
     ulong g = get_global_id(0);
-    ulong local_point = g / launch_blocks;
-    uint block = block0 + (uint)(g % launch_blocks);
-    if (local_point >= npoints) return;
-    uint point = (uint)(point0 + local_point);
-    Params p = splat_params(P, TABLES, npoints, local_point);
-    vec3 wo = v3((realN)WO[local_point], (realN)WO[npoints + local_point], (realN)WO[2 * npoints + local_point]);
+    Params p;
+    vec3 wo;
+    uint point, block;
+    if (!albedo_work(P, TABLES, WO, npoints, point0, block0, launch_blocks, &p, &wo, &point, &block))
+        return;
     uint stream = block / blocks_per_stream;
     uint first = (block % blocks_per_stream) * block_len;
     realN sum[CHANNELS], sum2[CHANNELS];
@@ -274,12 +289,11 @@ __kernel void albedo_qmc(const global real_t *P, Tables TABLES, const global rea
                          const uint blocks_per_stream, const uint block_len, global real_t *out)
 {
     ulong g = get_global_id(0);
-    ulong local_point = g / launch_blocks;
-    uint block = block0 + (uint)(g % launch_blocks);
-    if (local_point >= npoints) return;
-    uint point = (uint)(point0 + local_point);
-    Params p = splat_params(P, TABLES, npoints, local_point);
-    vec3 wo = v3((realN)WO[local_point], (realN)WO[npoints + local_point], (realN)WO[2 * npoints + local_point]);
+    Params p;
+    vec3 wo;
+    uint point, block;
+    if (!albedo_work(P, TABLES, WO, npoints, point0, block0, launch_blocks, &p, &wo, &point, &block))
+        return;
     uintN stream = (uintN)((block / blocks_per_stream) * W) + LANE_IDS;
     uint first = (block % blocks_per_stream) * block_len;
     uintN seed[4], x[4];
