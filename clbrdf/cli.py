@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import argparse
 import json
-import threading
 import math
+import threading
 import os
 import re
 import sys
@@ -454,6 +454,70 @@ def cmd_accuracy(args) -> int:
     return 0
 
 
+def cmd_stability(args) -> int:
+    from . import stability
+    from .runtime import check_int
+    names = [_spec(n).name for n in args.model] or None
+    check_int("samples", args.samples, 1024, 1 << 24, "[1024, 2^24]")
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ParameterError(f"--out {args.out!r} is a file; give a directory")
+    if args.before and not Path(args.before).is_file():
+        raise ParameterError(f"--before {args.before!r} is not a file; give an earlier "
+                             "stability.csv")
+    precisions = ("single", "double") if args.precision == "both" else (args.precision,)
+    command = " ".join(["clbrdf"] + [_quote(a) for a in args.argv])
+    stability.stability_map(names, out, samples=args.samples, precisions=precisions,
+                            before=args.before, command=command,
+                            progress=None if args.quiet else lambda s: print(s, flush=True))
+    print(f"wrote {out / 'stability.csv'}, {out / 'checks.csv'}, {out / 'README.md'} and one "
+          "PNG per model")
+    return 0
+
+
+def cmd_simplest(args) -> int:
+    from . import ladder
+    spec = _spec(args.model)
+    params = parse_params(spec, args.param)
+    if args.preset:
+        params["preset"] = args.preset
+    if not math.isfinite(args.tolerance) or not 0 <= args.tolerance < 1e6:
+        raise ParameterError(f"--tolerance {args.tolerance!r} is out of range: valid tolerance "
+                             "is in [0, 1e6) (relative error)")
+    _usable(_model(spec.name, args, params).device)
+    r = ladder.simplest(spec.name, args.tolerance, args.metric, device=args.device, **params)
+    if args.json:
+        print(json.dumps(r.to_json()))
+        return 0
+    v = r.variant
+    what = "f over direction pairs" if r.metric == "value" else "E(mu) over mu 0.02..1"
+    print(f"{r.model}: cheapest variant within {r.tolerance:g} (max relative error of {what}, "
+          f"against the full model in double precision): {v.label} "
+          f"({json.dumps(v.to_json()['variant'])})")
+    print(f"error {v.error:.3g}, speed-up {v.speedup:.2f}x "
+          f"({'eval kernel' if r.metric == 'value' else 'albedo, brdf estimator'})")
+    print()
+    print(r.table())
+    return 0
+
+
+def cmd_ladder(args) -> int:
+    from . import ladder
+    names = [_spec(n).name for n in args.model] or None
+    for n in names or ():
+        if n not in ladder.LADDER_CONFIGS:
+            raise ParameterError(f"model={n!r} has no ladder configuration: valid models are "
+                                 f"{', '.join(ladder.LADDER_CONFIGS)}")
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ParameterError(f"--out {args.out!r} is a file; give a directory")
+    command = " ".join(["clbrdf"] + [_quote(a) for a in args.argv])
+    ladder.chart(names, out, device=args.device, command=command,
+                 progress=None if args.quiet else lambda s: print(s, flush=True))
+    print(f"wrote {out / 'ladder.csv'}, {out / 'README.md'} and one PNG per model")
+    return 0
+
+
 RECOMMENDED = ("brdf", True)
 RECOMMENDED_WHY = ("brdf with Sobol points, the fastest estimator to a max error of 1e-3 for 10 "
                    "of 13 models and to 1e-4 for 7 (docs/accuracy/README.md); --estimator "
@@ -608,6 +672,60 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", "-q", action="store_true", help="no line per run")
     p.set_defaults(func=cmd_accuracy)
 
+    p = sub.add_parser("stability", parents=[dev], help="map where each albedo estimator "
+                       "fails", description="For every model (or the MODELs given), sweep its "
+                       "lobe parameters to the edges of their ranges against mu, run every Monte "
+                       "Carlo estimator and sampler in single and double precision against the "
+                       "float64 reference, and record non-finite results, bias beyond 4 standard "
+                       "errors, efficiency against the best estimator (useless below 1e-2) and "
+                       "precision lost in single; with clbrdf check's finite, non-negative and "
+                       "weight checks at each swept value. Writes DIR/stability.csv, "
+                       "DIR/checks.csv, DIR/MODEL.png (heat maps) and DIR/README.md.")
+    p.add_argument("model", metavar="MODEL", nargs="*", help=f"models (default: all of {models})")
+    p.add_argument("--out", "-o", default="stability", metavar="DIR",
+                   help="output directory (default ./stability; docs/stability in the repository)")
+    p.add_argument("--samples", type=int, default=1 << 16, metavar="N",
+                   help="Monte Carlo samples per cell (default 65536)")
+    p.add_argument("--precision", choices=PRECISIONS + ("both",), default="both",
+                   help="kernel arithmetic (default both)")
+    p.add_argument("--before", metavar="CSV", help="an earlier stability.csv: README.md then "
+                   "compares the failure counts")
+    p.add_argument("--quiet", "-q", action="store_true", help="no line per sweep")
+    p.set_defaults(func=cmd_stability)
+
+    p = sub.add_parser("simplest", parents=[dev], help="the cheapest variant of a "
+                       "configuration within a tolerance",
+                       description="Measure every cheaper variant of the configuration "
+                                   "(masking, Fresnel, lobes, Schlick's formulations, diffraction, "
+                                   "analytic Lambda, single precision; clbrdf/ladder.py) against "
+                                   "the full configuration in double precision and print the "
+                                   "fastest whose max relative error is within the tolerance, with "
+                                   "its error and measured speed-up.")
+    p.add_argument("model", metavar="MODEL")
+    p.add_argument("--tolerance", "-t", type=float, required=True, metavar="T",
+                   help="max relative error allowed")
+    p.add_argument("--param", "-p", action="append", metavar="NAME=VALUE",
+                   help="parameter or option (repeatable)")
+    p.add_argument("--preset", metavar="MATERIAL[:SOURCE]", help="a published fit")
+    p.add_argument("--metric", choices=("value", "albedo"), default="value",
+                   help="value: f over direction pairs (default); albedo: E(mu)")
+    p.add_argument("--json", action="store_true", help="one JSON object")
+    p.set_defaults(func=cmd_simplest)
+
+    p = sub.add_parser("ladder", parents=[dev], help="chart every cheaper variant's cost "
+                       "against its error",
+                       description="For each model's ladder configuration "
+                                   "(clbrdf.ladder.LADDER_CONFIGS): every cheaper variant's max "
+                                   "relative error of f and of E against the full model in double, "
+                                   "and its measured evaluations and albedo samples per second. "
+                                   "Writes DIR/ladder.csv, DIR/MODEL.png and DIR/README.md.")
+    p.add_argument("model", metavar="MODEL", nargs="*", help="models (default: all with a "
+                   "ladder configuration)")
+    p.add_argument("--out", "-o", default="ladder", metavar="DIR",
+                   help="output directory (default ./ladder; docs/ladder in the repository)")
+    p.add_argument("--quiet", "-q", action="store_true", help="no line per model")
+    p.set_defaults(func=cmd_ladder)
+
     p = sub.add_parser("check", parents=[dev], help="property checks of one configuration",
                        description="Run the conformance checks on the device for one "
                                    "configuration: finite and non-negative values, weight = f cos "
@@ -669,7 +787,14 @@ def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(_join_negative(argv))
     args.argv = argv
-    warnings.filterwarnings("ignore", message=r".*has been retrieved more than once")
+    with warnings.catch_warnings():     # restored for callers of main() in the same process
+        warnings.filterwarnings("ignore", message=r".*has been retrieved more than once")
+        warnings.showwarning = lambda message, category, *a, **k: print(
+            f"clbrdf {args.command}: warning: {message}", file=sys.stderr)
+        return _run(args)
+
+
+def _run(args) -> int:
     try:
         return args.func(args)
     except ParameterError as e:

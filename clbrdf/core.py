@@ -121,6 +121,13 @@ class Model:
         return a[0] if self.channels == 1 else np.moveaxis(a, 0, -1)
 
     def _batch(self, kernel: str, shape, inputs: list[np.ndarray], outputs: list[int]):
+        launch, fetch = self._batch_prepare(kernel, shape, inputs, outputs)
+        launch()
+        return fetch()
+
+    def _batch_prepare(self, kernel: str, shape, inputs: list[np.ndarray], outputs: list[int]):
+        """Device buffers of one batch call and two closures: ``launch()`` runs the kernel and
+        waits for it (repeatable: clbrdf.ladder times it alone), ``fetch()`` reads the outputs."""
         import pyopencl as cl
         n = math.prod(shape)
         w = self.width
@@ -134,12 +141,19 @@ class Model:
         host_out = [np.empty((k, n_pad), dtype=self.dtype) for k in outputs]
         out_bufs = [cl.Buffer(ctx, mf.WRITE_ONLY, h.nbytes) for h in host_out]
         prog = self.program(part="batch")
-        runtime.kernel(prog.program, kernel)(q, *runtime.ndrange(n_pad // w, self.device), bufs[0], prog.tables,
-                                             *bufs[1:], np.uint64(n_pad), *out_bufs)
-        for h, b in zip(host_out, out_bufs):
-            cl.enqueue_copy(q, h, b)
-        q.finish()
-        return [h[:, :n].reshape((h.shape[0],) + shape) for h in host_out]
+        knl = runtime.kernel(prog.program, kernel)
+
+        def launch():
+            knl(q, *runtime.ndrange(n_pad // w, self.device), bufs[0], prog.tables, *bufs[1:],
+                np.uint64(n_pad), *out_bufs)
+            q.finish()
+
+        def fetch():
+            for h, b in zip(host_out, out_bufs):
+                cl.enqueue_copy(q, h, b)
+            q.finish()
+            return [h[:, :n].reshape((h.shape[0],) + shape) for h in host_out]
+        return launch, fetch
 
     def _shape(self, *dirs):
         shapes = [r.shape for r in self._param_rows()] + [d.shape[:-1] for d in dirs]
@@ -294,6 +308,8 @@ def albedo(m: Model, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 <
         return AlbedoResult(est.reshape(cshape), err.reshape(cshape), np.broadcast_to(mu, shape),
                             estimator, int(evals.max(initial=0)), False, 0, m.precision, seconds,
                             m.describe(), tol=tol, evaluations=evals.reshape(shape))
+    from .stability import warn_if_useless
+    warn_if_useless(m, np.broadcast_to(mu, shape), estimator)
     est, err, plan, seconds = runtime.run_albedo(m, shape, wo, estimator=estimator, samples=samples,
                                                  seed=seed, qmc=qmc, progress=progress)
     return AlbedoResult(est.reshape(cshape), err.reshape(cshape), np.broadcast_to(mu, shape),

@@ -259,7 +259,11 @@ class DiskMap:
     def _rmax(self, psi):
         ce = self.c[0] * np.cos(psi) + self.c[1] * np.sin(psi)
         cz2 = self.wo[2] ** 2                                  # 1 - |c|^2
-        return cz2 / (ce + np.sqrt(ce * ce + cz2))
+        sq = np.sqrt(ce * ce + cz2)
+        # the positive root of rho^2 + 2 ce rho - cz2 in the form that does not cancel: at
+        # grazing wo (cz2 = 1e-24) and ce < 0, ce + sq rounds to 0 (E came out 0 for 0.19)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(ce > 0, cz2 / (ce + sq), sq - ce)
 
     def points(self, s, t):
         psi = 2 * np.pi * t

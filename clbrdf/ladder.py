@@ -1,0 +1,462 @@
+"""The least model a job needs: cheaper variants of a configuration, their cost and their error.
+
+A configuration (a model with its parameters and options, as ``Model`` takes them) has a ladder of
+cheaper variants, built from the rungs that apply to it (``RUNGS``), each alone and all
+combinations of them, in single and double precision:
+
+- ``masking``: height-correlated Smith masking -> separable, V-cavity, none;
+- ``fresnel``: exact (dielectric, conductor) -> Schlick's approximation with the same normal
+  reflectance; any Fresnel term -> F = 1;
+- ``diffuse``: the Lambertian term (kd > 0) dropped (one lobe against two);
+- ``lobes``: Löw et al.'s second smooth lobe dropped;
+- ``directional``, ``spectral``, ``material``: Schlick 1994's directional factor eq 18 -> eq 17,
+  15, 12 (Schlick's four formulations); Fresnel-like spectral factor -> constant; a DOUBLE
+  material -> SINGLE (layer 1 alone);
+- ``diffraction``: Holzschuch & Pacanowski's diffraction lobe (kw > 0) dropped;
+- ``analytic``: a tabulated Smith Lambda replaced by the analytic one of the distribution it
+  generalises (GTR -> GGX, exponential power -> Beckmann, same alpha);
+- ``precision``: double -> single;
+- the width (lanes per work-item), in the charted ladder only: the full configuration in single
+  precision at widths 1, 4 and 8 besides the device's default (it changes the speed, not the
+  model).
+
+Each candidate's error is measured against the full configuration in double precision: for
+``metric="value"`` the max relative error of f over a grid of direction pairs (``pairs()``;
+relative to max(f, 1e-3 max f) so that the near-zeros of f do not dominate), for
+``metric="albedo"`` the max relative error of E over ``ALBEDO_MUS`` (device quadrature to
+1e-8 in double, 1e-6 in single). Its cost is measured: evaluations per second (the ``eval``
+kernel alone over 2^20 direction pairs already on the device: the host's checks and copies
+would hide the difference between variants) and albedo samples per second (``brdf`` estimator, Philox, 64 points x
+2^14 samples), the median of ``REPEATS`` runs, on the device's default width.
+
+``simplest(model, tolerance, metric, **params)`` returns the fastest candidate within tolerance
+with the evidence; ``chart(models, out)`` writes the ladder of each model (at
+``LADDER_CONFIGS``) to ``docs/ladder/``.
+"""
+from __future__ import annotations
+
+import csv
+import io
+import itertools
+import json
+import time
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+ALBEDO_MUS = (0.02, 0.1, 0.25, 0.5, 0.75, 1.0)
+PAIR_MUS = (0.02, 0.1, 0.3, 0.5, 0.7, 0.9, 1.0)
+PAIR_PHIS = (0.0, 0.5 * np.pi, np.pi, 1.25 * np.pi)
+EVAL_PAIRS = 1 << 20
+ALBEDO_POINTS, ALBEDO_SAMPLES = 64, 1 << 14
+REPEATS = 3
+REL_FLOOR = 1e-3
+METRICS = ("value", "albedo")
+WIDTHS = (1, 4, 8)            # the ladder also times the full configuration at these widths
+# the full configurations charted under docs/ladder (one per family, every rung exercised)
+LADDER_CONFIGS = {
+    "ggx": {"alpha": 0.3, "fresnel": "dielectric", "eta": 1.5, "kd": 0.2},
+    "beckmann": {"alpha": 0.3, "fresnel": "conductor", "eta": 0.2, "k": 3.0},
+    "gtr": {"alpha": 0.3, "gamma": 1.8, "fresnel": "dielectric", "eta": 1.5},
+    "exppow": {"alpha": 0.3, "p": 0.9, "fresnel": "dielectric", "eta": 1.5},
+    "ashikhmin_shirley": {"nu": 100.0, "nv": 100.0, "fresnel": "dielectric", "eta": 1.5,
+                          "kd": 0.2},
+    "schlick": {"material": "double", "spectral": "fresnel", "c": 0.6, "r": 0.2, "r2": 0.8},
+    "low_smooth": {"lobes": "two", "kd": 0.1},
+    "holzschuch_pacanowski": {"kd": 0.1, "kw": 1.0, "sigma": 0.1},
+}
+
+
+@dataclass
+class Variant:
+    label: str                     # the rungs taken, "full" for none
+    name: str                      # model name
+    kw: dict                       # options and parameters
+    precision: str
+    error: float = float("nan")
+    evals_per_s: float = float("nan")
+    samples_per_s: float = float("nan")
+    speedup: float = float("nan")
+    width: int | None = None       # lanes per work-item (None: the device's default)
+
+    def to_json(self) -> dict:
+        return {"label": self.label, "variant": {"model": self.name, **_plain(self.kw),
+                                                 "precision": self.precision},
+                "error": self.error, "speedup": self.speedup,
+                "evals_per_s": self.evals_per_s, "samples_per_s": self.samples_per_s}
+
+
+def _plain(kw):
+    return {k: (v if isinstance(v, str) else int(v) if k == "channels" else
+                float(np.ravel(v)[0]) if np.size(v) == 1 else np.asarray(v, float).tolist())
+            for k, v in kw.items()}
+
+
+def full_config(name: str, **params) -> tuple[str, dict]:
+    """(model name, options, every used parameter and ``channels``) of a configuration as
+    given (a preset's values included)."""
+    from .core import Model
+    m = Model(name, **params)
+    return m.name, {**m.options, **m.params, "channels": m.channels}
+
+
+def _fresnel_f0(kw):
+    eta = np.asarray(kw.get("eta", 1.5), float)
+    k = np.asarray(kw.get("k", 0.0), float) if kw.get("fresnel") == "conductor" else 0.0
+    return ((eta - 1) ** 2 + k ** 2) / ((eta + 1) ** 2 + k ** 2)
+
+
+def _drop(kw, *names):
+    return {k: v for k, v in kw.items() if k not in names}
+
+
+# Each rung: (name, function (model name, kw) -> [(label, model name, kw)], the choices it offers)
+def _masking(name, kw):
+    m = kw.get("masking")
+    if m is None or m == "none":
+        return []
+    order = ("correlated", "separable", "vcavity", "none")
+    return [(f"masking={c}", name, {**kw, "masking": c}) for c in order[order.index(m) + 1:]
+            if c != m]
+
+
+SCHLICK_F0 = {"ashikhmin_shirley": "rs"}        # the model's Schlick normal reflectance
+
+
+def _fresnel(name, kw):
+    f = kw.get("fresnel")
+    if f is None or f == "one":
+        return []
+    out = []
+    if f in ("dielectric", "conductor"):
+        out.append(("fresnel=schlick", name, {**_drop(kw, "eta", "k"), "fresnel": "schlick",
+                                              SCHLICK_F0.get(name, "f0"): _fresnel_f0(kw)}))
+    out.append(("fresnel=one", name, {**_drop(kw, "eta", "k", "f0"), "fresnel": "one"}))
+    return out
+
+
+def _diffuse(name, kw):
+    if "kd" not in kw or not np.any(np.asarray(kw["kd"]) > 0) or name == "lambert":
+        return []
+    return [("kd=0", name, {**kw, "kd": 0.0})]
+
+
+def _lobes(name, kw):
+    if kw.get("lobes") != "two":
+        return []
+    return [("lobes=one", name, {**_drop(kw, "a2", "b2", "c2"), "lobes": "one"})]
+
+
+def _directional(name, kw):
+    if name != "schlick":
+        return []
+    order = ("eq18", "eq17", "eq15", "eq12")
+    d = kw.get("directional", "eq18")
+    return [(f"directional={c}", name, {**kw, "directional": c})
+            for c in order[order.index(d) + 1:]]
+
+
+def _spectral(name, kw):
+    if name != "schlick" or kw.get("spectral") != "fresnel":
+        return []
+    return [("spectral=constant", name, {**kw, "spectral": "constant"})]
+
+
+def _material(name, kw):
+    if name != "schlick" or kw.get("material") != "double":
+        return []
+    return [("material=single", name, {**_drop(kw, "c2", "r2", "p2", "psi2"),
+                                       "material": "single"})]
+
+
+def _diffraction(name, kw):
+    if name != "holzschuch_pacanowski" or not np.any(np.asarray(kw.get("kw", 0)) > 0):
+        return []
+    return [("kw=0", name, {**kw, "kw": 0.0})]
+
+
+ANALYTIC = {"gtr": ("ggx", ("gamma",)), "exppow": ("beckmann", ("p",))}
+
+
+def _analytic(name, kw):
+    if name not in ANALYTIC:
+        return []
+    to, drop = ANALYTIC[name]
+    return [(f"model={to}", to, _drop(kw, *drop))]
+
+
+RUNGS = (("masking", _masking), ("fresnel", _fresnel), ("diffuse", _diffuse),
+         ("lobes", _lobes), ("directional", _directional), ("spectral", _spectral),
+         ("material", _material), ("diffraction", _diffraction),
+         ("analytic", _analytic))
+
+
+def variants(name: str, kw: dict, precisions=("double", "single")) -> list[Variant]:
+    """The full configuration and every combination of the rungs' choices (at most one choice
+    per rung), in each precision; the full one in double first."""
+    combos = [("full", name, kw)]
+    for _, rung in RUNGS:
+        grown = []
+        for label, n, k in combos:
+            for l2, n2, k2 in rung(n, k):
+                grown.append((l2 if label == "full" else f"{label}, {l2}", n2, k2))
+        combos += grown
+    from .models import get_spec
+    from .spec import ParameterError
+    out = []
+    for label, n, k in combos:
+        try:
+            get_spec(n).configure(**k)
+        except ParameterError:
+            continue                     # a combination the model refuses
+        for prec in precisions:
+            out.append(Variant(label if prec == "double" else
+                               ("single" if label == "full" else f"{label}, single"),
+                               n, k, prec))
+    return out
+
+
+def _dir(mu, phi):
+    mu, phi = np.asarray(mu, float), np.asarray(phi, float)
+    s = np.sqrt(1 - mu * mu)
+    return np.stack([s * np.cos(phi), s * np.sin(phi), mu], -1)
+
+
+def pairs():
+    """(wo, wi): every grid direction against every other, plus the mirror pairs."""
+    M, P = np.meshgrid(PAIR_MUS, PAIR_PHIS, indexing="ij")
+    d = _dir(M.ravel(), P.ravel())
+    wo = np.concatenate([np.repeat(d, len(d), 0), d])
+    wi = np.concatenate([np.tile(d, (len(d), 1)), d * np.array([-1.0, -1.0, 1.0])])
+    return wo, wi
+
+
+def _model(v: Variant, device=None):
+    from .core import Model
+    return Model(v.name, precision=v.precision, device=device, width=v.width, **v.kw)
+
+
+def _median_time(fn) -> float:
+    fn()                                            # build and warm up, not timed
+    ts = []
+    for _ in range(REPEATS):
+        t = time.perf_counter()
+        fn()
+        ts.append(time.perf_counter() - t)
+    return float(np.median(ts))
+
+
+def _check_metric(metric):
+    if metric not in METRICS:
+        from .spec import ParameterError
+        raise ParameterError(f"metric={metric!r} is not valid: choose one of {', '.join(METRICS)}")
+
+
+def measure_errors(vs: list[Variant], metric: str, device=None) -> list[Variant]:
+    """Fill in each variant's error against vs[0], the full configuration in double."""
+    from .core import albedo
+    _check_metric(metric)
+    wo, wi = pairs()
+    ref = None
+    for v in vs:
+        m = _model(v, device)
+        if metric == "value":
+            f = np.asarray(m.eval(wo, wi), float)
+            ref = f if ref is None else ref
+            floor = REL_FLOOR * np.max(np.abs(ref))
+            v.error = float(np.max(np.abs(f - ref) / np.maximum(np.abs(ref), floor)))
+        else:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                e = np.asarray(albedo(m, np.asarray(ALBEDO_MUS), estimator="quadrature",
+                                      tol=1e-8 if v.precision == "double" else 1e-6).albedo,
+                               float)
+            ref = e if ref is None else ref
+            v.error = float(np.max(np.abs(e - ref) / np.maximum(np.abs(ref), 1e-12)))
+    return vs
+
+
+def measure_speed(vs: list[Variant], metric: str, device=None) -> list[Variant]:
+    """Fill in evaluations and albedo samples per second, and the speed-up over vs[0] for the
+    metric's operation (value: eval, albedo: the brdf estimator)."""
+    from .core import albedo
+    _check_metric(metric)
+    rng = np.random.default_rng(3)
+    bwo = _dir(rng.uniform(0.01, 1, EVAL_PAIRS), rng.uniform(0, 2 * np.pi, EVAL_PAIRS))
+    bwi = _dir(rng.uniform(0.01, 1, EVAL_PAIRS), rng.uniform(0, 2 * np.pi, EVAL_PAIRS))
+    amu = np.linspace(0.05, 1, ALBEDO_POINTS)
+    for v in vs:
+        m = _model(v, device)
+        launch, _ = m._batch_prepare("eval_batch", (EVAL_PAIRS,), [bwo.T, bwi.T], [m.channels])
+        v.evals_per_s = EVAL_PAIRS / _median_time(launch)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            v.samples_per_s = ALBEDO_POINTS * ALBEDO_SAMPLES / _median_time(
+                lambda: albedo(m, amu, samples=ALBEDO_SAMPLES, seed=1))
+    key = "evals_per_s" if metric == "value" else "samples_per_s"
+    for v in vs:
+        v.speedup = getattr(v, key) / getattr(vs[0], key)
+    return vs
+
+
+@dataclass
+class Simplest:
+    model: str
+    metric: str
+    tolerance: float
+    variant: Variant
+    candidates: list = field(default_factory=list)
+
+    def to_json(self) -> dict:
+        return {"model": self.model, "metric": self.metric, "tolerance": self.tolerance,
+                "variant": self.variant.to_json()["variant"], "label": self.variant.label,
+                "error": self.variant.error, "speedup": self.variant.speedup,
+                "candidates": [c.to_json() for c in self.candidates]}
+
+    def table(self) -> str:
+        key = "evals/s" if self.metric == "value" else "samples/s"
+        lines = [f"{'candidate':58s} {'error':>9s} {key:>10s} {'speed-up':>8s}"]
+        for c in sorted(self.candidates, key=lambda c: (np.isnan(c.speedup), -c.speedup,
+                                                          c.error)):
+            rate = c.evals_per_s if self.metric == "value" else c.samples_per_s
+            mark = " <= chosen" if c is self.variant else ("" if c.error <= self.tolerance
+                                                          else " (beyond tolerance, not timed)")
+            lines.append(f"{c.label[:58]:58s} {c.error:9.2e} {rate:10.3g} {c.speedup:8.2f}{mark}")
+        return "\n".join(lines)
+
+
+def simplest(model: str, tolerance: float, metric: str = "value", *, device=None,
+             **params) -> Simplest:
+    """The cheapest variant of a configuration whose error against the full configuration (in
+    double precision) is at most ``tolerance`` (relative; ``metric`` ``value``: f over a grid
+    of direction pairs, ``albedo``: E over ALBEDO_MUS), with every candidate measured."""
+    from .spec import ParameterError
+    if isinstance(tolerance, bool) or not isinstance(tolerance, (int, float)) or \
+            not 0 <= float(tolerance) < 1e6:
+        raise ParameterError(f"tolerance={tolerance!r} is out of range: valid tolerance is in "
+                             "[0, 1e6) (relative error)")
+    if metric not in METRICS:
+        raise ParameterError(f"metric={metric!r} is not valid: choose one of {', '.join(METRICS)}")
+    name, kw = full_config(model, **params)
+    vs = measure_errors(variants(name, kw), metric, device)
+    ok = [vs[0]] + [v for v in vs[1:] if v.error <= tolerance]
+    measure_speed(ok, metric, device)              # only the candidates within tolerance
+    best = max(ok, key=lambda v: v.speedup)
+    return Simplest(name, metric, float(tolerance), best, vs)
+
+
+# ---- docs/ladder
+
+FIELDS = ("model", "label", "variant", "precision", "value_error", "albedo_error",
+          "evals_per_s", "samples_per_s")
+
+
+def ladder(name: str, kw: dict, device=None) -> list[dict]:
+    """Rows of FIELDS: every variant with both errors and both rates."""
+    mname, full = full_config(name, **kw)
+    rows = {}
+    for metric in METRICS:
+        vs = variants(mname, full)
+        vs += [Variant(f"single, width {w}", mname, full, "single", width=w) for w in WIDTHS]
+        measure_errors(vs, metric, device)
+        if metric == "value":
+            measure_speed(vs, metric, device)
+        for v in vs:
+            r = rows.setdefault(v.label, {"model": mname, "label": v.label,
+                                          "variant": json.dumps(v.to_json()["variant"]),
+                                          "precision": v.precision})
+            r[f"{metric}_error"] = v.error
+            if metric == "value":
+                r["evals_per_s"], r["samples_per_s"] = v.evals_per_s, v.samples_per_s
+    return list(rows.values())
+
+
+def plot(rows, fileobj, name, kw):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(1, 2, figsize=(12, 5.2))
+    for ax, err, rate, what in ((axes[0], "value_error", "evals_per_s", "evaluations / s"),
+                                (axes[1], "albedo_error", "samples_per_s", "albedo samples / s")):
+        for r in rows:
+            e = max(r[err], 1e-17)
+            ax.scatter(r[rate], e, c="C0" if r["precision"] == "double" else "C1", s=18)
+            ax.annotate(r["label"], (r[rate], e), fontsize=5, alpha=0.8,
+                        xytext=(3, 2), textcoords="offset points")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel(what)
+        ax.set_ylabel("max relative error against the full model in double"
+                      if err == "value_error" else "max relative error of E")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].set_title("f over direction pairs (blue double, orange single)", fontsize=9)
+    axes[1].set_title("E(mu) over mu 0.02..1", fontsize=9)
+    fig.suptitle(f"{name} {json.dumps(_plain(kw))}: cost against error of each variant",
+                 fontsize=9)
+    fig.tight_layout()
+    fig.savefig(fileobj, format="png", dpi=100)
+    plt.close(fig)
+
+
+def chart(models=None, out="ladder", *, device=None, command="clbrdf.ladder.chart()",
+          progress=None) -> Path:
+    """Measure the ladder of each model at LADDER_CONFIGS and write ladder.csv, MODEL.png and
+    README.md to ``out`` (staged: a kill leaves the old files or the new ones)."""
+    from .tables import _Staged, _sync_close
+    names = list(models or LADDER_CONFIGS)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    all_rows, charts = [], {}
+    for name in names:
+        kw = LADDER_CONFIGS.get(name, {})
+        rows = ladder(name, kw, device)
+        charts[name] = io.BytesIO()
+        plot(rows, charts[name], name, kw)
+        all_rows += rows
+        if progress:
+            progress(name)
+    staged = _Staged()
+    try:
+        for name, png in charts.items():
+            f = staged.open(out / f"{name}.png", "wb")
+            f.write(png.getvalue())
+            _sync_close(f)
+        f = staged.open(out / "ladder.csv", "w")
+        w = csv.DictWriter(f, fieldnames=FIELDS)
+        w.writeheader()
+        w.writerows(all_rows)
+        _sync_close(f)
+        f = staged.open(out / "README.md", "w")
+        f.write(summary(all_rows, command, time.perf_counter() - t0))
+        _sync_close(f)
+        staged.commit()
+    except BaseException:
+        staged.discard()
+        raise
+    return out
+
+
+def summary(rows, command, seconds) -> str:
+    lines = ["# The ladder: cheaper variants, their cost and their error", "",
+             f"Generated by `{command}` in {seconds:.0f} s on one device (its default width). "
+             "For each model's configuration (`clbrdf.ladder.LADDER_CONFIGS`), every combination "
+             "of cheaper rungs (`clbrdf/ladder.py`) in double and single precision: the max "
+             "relative error of f over direction pairs and of E(mu) against the full "
+             "configuration in double precision, and the measured evaluations and albedo "
+             "samples per second (median of 3). `clbrdf simplest` picks from the same "
+             "candidates for a user's own parameters and tolerance.", ""]
+    for name in dict.fromkeys(r["model"] for r in rows):
+        rs = [r for r in rows if r["model"] == name]
+        full = rs[0]
+        lines += [f"## {name}", "", f"![{name}]({name}.png)", "",
+                  "| variant | f error | E error | eval speed-up | albedo speed-up |",
+                  "|---|---:|---:|---:|---:|"]
+        for r in sorted(rs, key=lambda r: -r["evals_per_s"]):
+            lines.append(f"| {r['label']} | {r['value_error']:.2g} | {r['albedo_error']:.2g} | "
+                         f"{r['evals_per_s'] / full['evals_per_s']:.2f} | "
+                         f"{r['samples_per_s'] / full['samples_per_s']:.2f} |")
+        lines.append("")
+    return "\n".join(lines)

@@ -1,0 +1,586 @@
+"""The stability map: where each estimator fails, ``clbrdf stability`` and ``stability_map()``.
+
+For every model, each parameter that sets the lobe is swept to the edges of its range and past
+where users go (``SWEEPS``; the other parameters at their defaults), against mu from the smallest
+value the precision accepts to 1 (``MUS``). At every cell each Monte Carlo estimator (uniform,
+cosine, brdf, mis; brdf and mis with each of the model's samplers; Philox points) runs in single
+and double precision, and is compared with the float64 reference (``clbrdf.ref``, its error below
+a thousandth of the estimate's standard error). A cell records:
+
+- ``nonfinite``: E or its standard error is NaN or Inf;
+- ``biased``: |E - E_ref| beyond Z_BIAS standard errors (the standard error widened by the
+  rounding floor and the resolution of ``clbrdf.check``, and by the reference's own error);
+- ``efficiency``: 1 / (mean squared error x time) of the estimator against the best estimator
+  at that cell and precision, where the squared error per sample is the larger of the variance
+  and the squared deviation from the reference (so that an estimator whose rare events were not
+  drawn, and whose error bar is therefore too small, is not rated by that error bar);
+  ``useless`` below USELESS;
+- ``precision_loss`` (single only): the estimate is non-finite where double precision's is not,
+  or biased (and not useless) where double precision, same estimator and sampler, is neither
+  biased nor useless and the two estimates differ by more than 2 of double's standard errors
+  (their streams draw the same numbers, rounded to 2^-23 or 2^-32, so that heavy-tailed
+  weights do not make two independent-looking errors of the same estimate).
+
+At every swept value and precision, ``clbrdf.check``'s finite, non-negative and weight checks
+run over their direction grid (grazing to normal, mirror pairs included).
+
+``stability_map()`` writes ``stability.csv`` (one row per cell and estimator), ``checks.csv``,
+one PNG heat map per model and ``README.md`` (the failures by kind, the useless regions, and,
+given an earlier CSV, the counts before and after). ``warn_if_useless()`` reads the map that
+ships with the package (``clbrdf/data/stability.csv``) and warns when ``albedo`` is asked for an
+estimator in a cell the map marks useless or biased.
+"""
+from __future__ import annotations
+
+import csv
+import io
+import math
+import time
+import warnings
+from concurrent.futures import ProcessPoolExecutor
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+ROUGH = (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 1.0)
+SHAPE_P = (0.1, 0.2, 0.5, 1.0, 2.0, 3.5, 5.0)
+NEAR_ONE = (0.1, 0.5, 0.9, 1 - 1e-4, 1 - 1e-7, 1.0, 1 + 1e-7, 1 + 1e-4, 2.0, 10.0)
+ABC_B = (1e-6, 1e-2, 1.0, 1e2, 1e4, 1e6, 1e8)
+# model: [(parameters set together, values)]; () sweeps nothing (the defaults only)
+SWEEPS = {
+    "lambert": [((), (0.0,))],
+    "ggx": [(("alpha",), ROUGH)],
+    "beckmann": [(("alpha",), ROUGH)],
+    "gtr": [(("alpha",), (1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 0.999)),
+            (("gamma",), (0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0))],
+    "sgd": [(("alpha",), (1e-5,) + ROUGH)],
+    "exppow": [(("alpha",), ROUGH), (("p",), SHAPE_P)],
+    "ashikhmin_shirley": [(("nu", "nv"), (0.0, 1.0, 10.0, 1e2, 1e3, 1e4, 1e5))],
+    "schlick": [(("r",), (1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 0.1, 0.5, 1.0))],
+    "low_smooth": [(("b",), ABC_B), (("c",), NEAR_ONE)],
+    "low_microfacet": [(("b",), ABC_B), (("c",), NEAR_ONE)],
+    "holzschuch_pacanowski": [(("sigma",), ROUGH), (("p",), SHAPE_P)],
+    "ward": [(("alpha_x", "alpha_y"), (1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 1.0))],
+    "sgd_bagher": [(("alpha",), (1e-5,) + ROUGH)],
+}
+MUS = (1e-12, 1e-6, 1e-4, 1e-3, 1e-2, 0.1, 0.3, 0.6, 1.0)
+ESTIMATORS = ("uniform", "cosine", "brdf", "mis")
+SAMPLES = 1 << 16
+SEED = 11
+Z_BIAS = 4.0
+USELESS = 1e-2          # relative efficiency below which an estimator is marked useless
+REF_TOL = 1e-8          # first reference tolerance; refined to REF_REL of the standard error
+REF_REL = 1e-3
+FIELDS = ("model", "sweep", "value", "mu", "estimator", "sampler", "precision", "E", "stderr",
+          "E_ref", "ref_err", "z", "efficiency", "nonfinite", "biased", "useless",
+          "precision_loss", "seconds", "ref_version")
+CHECK_FIELDS = ("model", "sweep", "value", "precision", "check", "passed", "statistic", "worst")
+FLAGS = ("nonfinite", "biased", "precision_loss", "useless")
+
+
+def sweep_label(names) -> str:
+    return "=".join(names) if names else "defaults"
+
+
+def samplers(name: str) -> tuple:
+    """The model's sampler choices, or ("-",) when it has one."""
+    from .models import get_spec
+    spec = get_spec(name)
+    opt = next((o for o in spec.options if o.name == "sampler"), None)
+    return tuple(opt.choices) if opt is not None and len(opt.choices) > 1 else ("-",)
+
+
+def _kw(names, value, sampler="-") -> dict:
+    kw = {n: value for n in names}
+    if sampler != "-":
+        kw["sampler"] = sampler
+    return kw
+
+
+def _ref_cell(args):
+    """(E_ref, err) of one cell; the tolerance tightened to REF_REL of what 2^16 samples resolve
+    (at least 1e-3 of E's own size) when the first pass is looser."""
+    name, names, value, mu, samples = args
+    from .ref import reference
+    r = reference(name, **_kw(names, value))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        e, err = (float(np.ravel(x)[0]) for x in r.albedo(mu, 0.0, REF_TOL))
+        want = max(REF_REL * abs(e) / math.sqrt(samples), 1e-15)
+        if err > want and abs(e) > 0:
+            e, err = (float(np.ravel(x)[0]) for x in r.albedo(mu, 0.0, want))
+    return e, err
+
+
+@lru_cache(maxsize=None)
+def ref_version(name: str) -> str:
+    """A hash of what a model's reference values depend on: the reference modules it uses and
+    the model's default parameters. An earlier map's reference values are reused only where
+    it matches."""
+    import hashlib
+    import json
+    from .models import get_spec
+    spec = get_spec(name)
+    here = Path(__file__).parent
+    files = dict.fromkeys([here / "quadrature.py", here / "ref" / "__init__.py",
+                           here / "ref" / "microfacet.py", here / "ref" / "distributions.py",
+                           here / "ref" / f"{spec.ref}.py"])
+    h = hashlib.sha1()
+    for f in files:
+        h.update(f.read_bytes())
+    _, values = spec.configure()
+    h.update(json.dumps({k: np.asarray(v).tolist() for k, v in values.items()},
+                        sort_keys=True).encode())
+    return h.hexdigest()[:12]
+
+
+def references(name: str, samples: int = SAMPLES, cache: dict | None = None,
+               workers: int | None = None) -> dict:
+    """{(sweep, value, mu): (E_ref, err)} for every cell of the model, computed in a pool of
+    processes; cells in ``cache`` (from an earlier map) are not recomputed."""
+    cells = [(name, names, v, mu, samples) for names, values in SWEEPS[name] for v in values
+             for mu in MUS]
+    out, todo = {}, []
+    for c in cells:
+        key = (sweep_label(c[1]), float(c[2]), float(c[3]))
+        if cache is not None and (name,) + key in cache:
+            out[key] = cache[(name,) + key]
+        else:
+            todo.append((key, c))
+    if todo:
+        with ProcessPoolExecutor(workers) as pool:
+            for (key, _), res in zip(todo, pool.map(_ref_cell, [c for _, c in todo])):
+                out[key] = res
+    return out
+
+
+def _run_checks(name, names, value, precision):
+    from .check import _values, check_finite, check_nonnegative, check_weight
+    from .core import Model
+    m = Model(name, precision=precision, **_kw(names, value))
+    v = _values(m, SEED)
+    return [check_finite(m, v), check_nonnegative(m, v), check_weight(m, v)]
+
+
+def measure(name: str, refs: dict, *, samples: int = SAMPLES, precisions=("single", "double"),
+            progress=None) -> tuple[list[dict], list[dict]]:
+    """Rows of FIELDS (one per cell, estimator, sampler and precision) and of CHECK_FIELDS."""
+    from .check import _floor, _resolution
+    from .core import Model, albedo
+    from .spec import MU_MIN
+    rows, checks = [], []
+    for names, values in SWEEPS[name]:
+        sweep = sweep_label(names)
+        vals = np.asarray(values, float)
+        for prec in precisions:
+            mus = np.array([mu for mu in MUS if mu >= MU_MIN[prec]])
+            e_ref = np.array([[refs[(sweep, float(v), float(mu))][0] for mu in mus] for v in vals])
+            r_err = np.array([[refs[(sweep, float(v), float(mu))][1] for mu in mus] for v in vals])
+            runs = []
+            for est in ESTIMATORS:
+                for smp in (samplers(name) if est in ("brdf", "mis") else ("-",)):
+                    kw = _kw(names, vals[:, None] if names else None, smp) if names else \
+                        ({"sampler": smp} if smp != "-" else {})
+                    m = Model(name, precision=prec, **kw)
+                    with warnings.catch_warnings():     # the map's own warnings
+                        warnings.simplefilter("ignore")
+                        albedo(m, mus[:1], estimator=est, samples=64, seed=SEED)   # build
+                        t = time.perf_counter()
+                        r = albedo(m, mus, estimator=est, samples=samples, seed=SEED)
+                        secs = time.perf_counter() - t
+                    e = np.broadcast_to(np.asarray(r.albedo, float), e_ref.shape)
+                    se = np.broadcast_to(np.asarray(r.stderr, float), e_ref.shape)
+                    runs.append((est, smp, e, se, secs / e.size / samples, m))
+            eps_floor = _floor(runs[0][5], e_ref)
+            effs = []
+            for est, smp, e, se, t, m in runs:
+                dev = np.abs(e - e_ref)
+                sigma = np.sqrt(se ** 2 + eps_floor ** 2 + _resolution(e_ref, samples) ** 2
+                                + r_err ** 2)
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    z = np.where(np.isfinite(e), dev / sigma, np.inf)
+                    mse = samples * np.maximum(se ** 2, np.maximum(dev - eps_floor, 0) ** 2) \
+                        + samples * eps_floor ** 2
+                    eff = np.where(np.isfinite(mse) & np.isfinite(e), 1 / (mse * t), 0.0)
+                effs.append(eff)
+            best = np.max(effs, axis=0)
+            for (est, smp, e, se, t, m), eff in zip(runs, effs):
+                rel = np.where(best > 0, eff / np.where(best > 0, best, 1), 1.0)
+                for i, v in enumerate(vals):
+                    for j, mu in enumerate(mus):
+                        dev = abs(e[i, j] - e_ref[i, j])
+                        sigma = math.sqrt(se[i, j] ** 2 + eps_floor[i, j] ** 2
+                                          + _resolution(e_ref[i, j], samples) ** 2
+                                          + r_err[i, j] ** 2)
+                        fin = bool(np.isfinite(e[i, j]) and np.isfinite(se[i, j]))
+                        z = dev / sigma if fin and sigma > 0 else (0.0 if fin and dev == 0
+                                                                    else math.inf)
+                        rows.append({
+                            "model": name, "sweep": sweep, "value": float(v), "mu": float(mu),
+                            "estimator": est, "sampler": smp, "precision": prec,
+                            "E": float(e[i, j]), "stderr": float(se[i, j]),
+                            "E_ref": float(e_ref[i, j]), "ref_err": float(r_err[i, j]),
+                            "z": float(z), "efficiency": float(rel[i, j]),
+                            "nonfinite": int(not fin), "biased": int(fin and z > Z_BIAS),
+                            "useless": int(rel[i, j] < USELESS), "precision_loss": 0,
+                            "seconds": t * samples, "ref_version": ref_version(name)})
+            for v in vals:
+                for c in _run_checks(name, names, float(v), prec):
+                    checks.append({"model": name, "sweep": sweep, "value": float(v),
+                                   "precision": prec, "check": c.name, "passed": int(c.passed),
+                                   "statistic": c.statistic, "worst": c.worst})
+            if progress:
+                progress(f"{name} {sweep} {prec}")
+    _mark_precision_loss(rows)
+    return rows, checks
+
+
+def _key(r):
+    return (r["model"], r["sweep"], r["value"], r["mu"], r["estimator"], r["sampler"])
+
+
+def _mark_precision_loss(rows):
+    double = {_key(r): r for r in rows if r["precision"] == "double"}
+    for r in rows:
+        d = double.get(_key(r))
+        if r["precision"] == "single" and d is not None:
+            if r["nonfinite"]:
+                r["precision_loss"] = int(not d["nonfinite"])
+                continue
+            sound = not (d["nonfinite"] or d["biased"] or d["useless"])
+            # both streams draw the same numbers (rounded to 2^-23 or 2^-32): their estimates
+            # differ by far less than a standard error unless single precision loses digits
+            apart = abs(r["E"] - d["E"]) > 2 * d["stderr"]
+            r["precision_loss"] = int(bool(r["biased"]) and not r["useless"] and sound and apart)
+
+
+# ---- output
+
+def _read_csv(path) -> list[dict]:
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    for r in rows:
+        for k in ("value", "mu", "E", "stderr", "E_ref", "ref_err", "z", "efficiency", "seconds"):
+            r[k] = float(r[k])
+        for k in FLAGS:
+            r[k] = int(r[k])
+    return rows
+
+
+def ref_cache(path) -> dict:
+    """{(model, sweep, value, mu): (E_ref, err)} from an earlier stability.csv, where its
+    reference version is this code's."""
+    try:
+        rows = _read_csv(path)
+    except (OSError, KeyError, ValueError):
+        return {}
+    return {(r["model"], r["sweep"], r["value"], r["mu"]): (r["E_ref"], r["ref_err"])
+            for r in rows if r.get("ref_version") == ref_version(r["model"])}
+
+
+def _fmt(v):
+    return f"{v:.3g}" if v not in (1 - 1e-7, 1 + 1e-7, 1 - 1e-4, 1 + 1e-4) else \
+        f"1{'-' if v < 1 else '+'}{abs(1 - v):.0e}"
+
+
+def plot(rows: list[dict], fileobj, name: str):
+    """Heat maps of one model: per sweep and precision a row of panels, one per estimator and
+    sampler; colour log10 relative efficiency, letters the failures (N non-finite, B biased,
+    P precision loss in single), grey the cells the precision does not accept."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import Normalize
+    combos = list(dict.fromkeys((r["estimator"], r["sampler"]) for r in rows))
+    panels = list(dict.fromkeys((r["sweep"], r["precision"]) for r in rows))
+    fig, axes = plt.subplots(len(panels), len(combos), figsize=(2.3 * len(combos) + 1,
+                                                                2.4 * len(panels) + 0.6),
+                             squeeze=False, sharey=True, layout="constrained")
+    norm = Normalize(-6, 0)
+    cmap = plt.get_cmap("viridis").with_extremes(bad="0.85")
+    idx = {}
+    for r in rows:
+        idx[(r["sweep"], r["precision"], r["estimator"], r["sampler"], r["value"], r["mu"])] = r
+    im = None
+    for pi, (sweep, prec) in enumerate(panels):
+        values = sorted({r["value"] for r in rows if r["sweep"] == sweep})
+        for ci, (est, smp) in enumerate(combos):
+            ax = axes[pi, ci]
+            grid = np.full((len(MUS), len(values)), np.nan)
+            for j, mu in enumerate(MUS):
+                for i, v in enumerate(values):
+                    r = idx.get((sweep, prec, est, smp, v, mu))
+                    if r is None:
+                        continue
+                    grid[j, i] = math.log10(max(r["efficiency"], 1e-6))
+                    mark = "N" if r["nonfinite"] else "P" if r["precision_loss"] else \
+                        "B" if r["biased"] else ""
+                    if mark:
+                        ax.text(i, j, mark, ha="center", va="center", fontsize=7,
+                                color="red" if mark != "B" or not r["useless"] else "white")
+            im = ax.imshow(np.ma.masked_invalid(grid), origin="lower", cmap=cmap, norm=norm,
+                           aspect="auto")
+            ax.set_xticks(range(len(values)), [_fmt(v) for v in values], rotation=90,
+                          fontsize=6)
+            ax.set_yticks(range(len(MUS)), [f"{m:g}" for m in MUS], fontsize=6)
+            if pi == 0:
+                ax.set_title(est + ("" if smp == "-" else f" ({smp})"), fontsize=8)
+            if ci == 0:
+                ax.set_ylabel(f"{prec}\nmu", fontsize=7)
+            ax.set_xlabel(sweep, fontsize=7)
+    fig.suptitle(f"{name}: log10 efficiency relative to the best estimator "
+                 f"(N non-finite, B biased > {Z_BIAS:g} se, P lost in single)", fontsize=9)
+    fig.colorbar(im, ax=axes, shrink=0.6, label="log10 relative efficiency")
+    fig.savefig(fileobj, format="png", dpi=90)
+    plt.close(fig)
+
+
+def _counts(rows) -> dict:
+    out = {}
+    for r in rows:
+        c = out.setdefault(r["model"], {f: 0 for f in FLAGS + ("cells",)})
+        c["cells"] += 1
+        for f in FLAGS:
+            c[f] += r[f]
+    return out
+
+
+def summary(rows, checks, command, seconds, before=None, samples=SAMPLES) -> str:
+    lines = ["# Stability map", "",
+             f"Generated by `{command}` in {seconds:.0f} s ({samples} samples per cell, "
+             f"seed {SEED}). Each model's lobe parameters are swept "
+             "(others at their defaults) against mu; every Monte Carlo estimator runs with "
+             "Philox points in single and double precision against the float64 reference "
+             "(`clbrdf/stability.py` says how each flag is decided). `stability.csv`: one row "
+             "per cell; `checks.csv`: `clbrdf check`'s finite, non-negative and weight checks "
+             "at each swept value; `MODEL.png`: heat maps (colour: log10 efficiency against the "
+             "best estimator at the cell; N non-finite, B biased, P precision lost in single).",
+             "", f"A cell is *useless* for an estimator when its efficiency is below {USELESS:g} "
+             "of the best estimator's there (it needs over 100 times the time for the same "
+             "error); `clbrdf albedo` and `clbrdf.albedo` warn when asked for such a cell "
+             f"(the map ships as `clbrdf/data/stability.csv`). *Biased*: more than {Z_BIAS:g} "
+             "standard errors from the reference; by chance alone about "
+             f"{len(rows) * 2 * 3.17e-5:.1f} of the {len(rows)} cells.", ""]
+    counts = _counts(rows)
+    lines += ["## Failures per model (cells over all estimators, samplers and precisions)", "",
+              "| model | cells | non-finite | biased | biased, not useless | precision loss | "
+              "useless |", "|---|---:|---:|---:|---:|---:|---:|"]
+    for name, c in counts.items():
+        bu = sum(1 for r in rows if r["model"] == name and r["biased"] and not r["useless"])
+        lines.append(f"| {name} | {c['cells']} | {c['nonfinite']} | {c['biased']} | {bu} | "
+                     f"{c['precision_loss']} | {c['useless']} |")
+    if before:
+        bc = _counts(before)
+        lines += ["", "## Before and after", "",
+                  "| model | non-finite | biased | precision loss | useless |",
+                  "|---|---:|---:|---:|---:|"]
+        for name, c in counts.items():
+            b = bc.get(name)
+            if b:
+                lines.append(f"| {name} | " + " | ".join(
+                    f"{b[f]} -> {c[f]}" for f in FLAGS) + " |")
+    defects = [r for r in rows if (r["nonfinite"] or r["biased"]) and not r["useless"]]
+    lines += ["", "## Non-finite or biased where the estimator is otherwise useful", ""]
+    if defects:
+        lines += ["| model | sweep | value | mu | estimator | sampler | precision | E | stderr "
+                  "| E_ref | z |", "|---|---|---:|---:|---|---|---|---:|---:|---:|---:|"]
+        for r in defects:
+            lines.append(f"| {r['model']} | {r['sweep']} | {_fmt(r['value'])} | {r['mu']:g} | "
+                         f"{r['estimator']} | {r['sampler']} | {r['precision']} | "
+                         f"{r['E']:.7g} | {r['stderr']:.2g} | {r['E_ref']:.7g} | "
+                         f"{r['z']:.3g} |")
+    else:
+        lines.append("None.")
+    lines += ["", "## Useless regions (estimator: where, per model)", ""]
+    for name in counts:
+        parts = []
+        for est in ESTIMATORS:
+            bad = [r for r in rows if r["model"] == name and r["estimator"] == est
+                   and r["useless"]]
+            if bad:
+                sw = sorted({(r["sweep"], r["sampler"]) for r in bad})
+                desc = "; ".join(
+                    f"{s}{'' if smp == '-' else f' ({smp})'} "
+                    f"{_fmt(min(r['value'] for r in bad if r['sweep'] == s))}.."
+                    f"{_fmt(max(r['value'] for r in bad if r['sweep'] == s))}"
+                    for s, smp in sw)
+                parts.append(f"{est}: {sum(1 for _ in bad)} cells ({desc})")
+        lines.append(f"- {name}: " + (", ".join(parts) if parts else "none"))
+    failed = [c for c in checks if not c["passed"]]
+    lines += ["", "## `clbrdf check` (finite, non-negative, weight) at each swept value", ""]
+    if failed:
+        lines += ["| model | sweep | value | precision | check | statistic | worst |",
+                  "|---|---|---:|---|---|---:|---|"]
+        for c in failed:
+            lines.append(f"| {c['model']} | {c['sweep']} | {_fmt(float(c['value']))} | "
+                         f"{c['precision']} | {c['check']} | {c['statistic']} | "
+                         f"{str(c['worst'])[:120]} |")
+    else:
+        lines.append(f"All {len(checks)} pass.")
+    return "\n".join(lines) + "\n"
+
+
+def stability_map(models=None, out="stability", *, samples: int = SAMPLES,
+                  precisions=("single", "double"), before=None,
+                  command: str = "clbrdf.stability.stability_map()", progress=None) -> Path:
+    """Measure and write stability.csv, checks.csv, MODEL.png and README.md to ``out`` (staged:
+    a kill leaves the old files or the new ones). References are taken from ``out``'s earlier
+    stability.csv where it has the cell. ``before``: an earlier stability.csv to compare with."""
+    from .models import get_spec
+    from .tables import _Staged, _sync_close
+    names = [get_spec(n).name for n in (models or list(SWEEPS))]
+    for n in names:
+        if n not in SWEEPS:
+            from .spec import ParameterError
+            raise ParameterError(f"model={n!r} has no sweep in clbrdf.stability.SWEEPS")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    cache = ref_cache(out / "stability.csv")
+    t0 = time.perf_counter()
+    all_rows, all_checks, charts = [], [], {}
+    for name in names:
+        refs = references(name, samples, cache)
+        if progress:
+            progress(f"{name}: references")
+        rows, checks = measure(name, refs, samples=samples, precisions=precisions,
+                               progress=progress)
+        charts[name] = io.BytesIO()
+        plot(rows, charts[name], name)
+        all_rows += rows
+        all_checks += checks
+    kept = [r for r in _read_csv(out / "stability.csv") if r["model"] not in names] \
+        if (out / "stability.csv").exists() else []
+    before_rows = _read_csv(before) if before else None
+    if before_rows:
+        _mark_precision_loss(before_rows)        # the rule of this code, for comparison
+    staged = _Staged()
+    try:
+        for name, png in charts.items():
+            f = staged.open(out / f"{name}.png", "wb")
+            f.write(png.getvalue())
+            _sync_close(f)
+        for fname, fields, data in (("stability.csv", FIELDS, kept + all_rows),
+                                    ("checks.csv", CHECK_FIELDS, all_checks)):
+            f = staged.open(out / fname, "w")
+            w = csv.DictWriter(f, fieldnames=fields, extrasaction="ignore")
+            w.writeheader()
+            w.writerows(data)
+            _sync_close(f)
+        f = staged.open(out / "README.md", "w")
+        f.write(summary(kept + all_rows, all_checks, command, time.perf_counter() - t0,
+                        before_rows, samples))
+        _sync_close(f)
+        staged.commit()
+    except BaseException:
+        staged.discard()
+        raise
+    return out
+
+
+# ---- warnings from the shipped map
+
+MAP = Path(__file__).parent / "data" / "stability.csv"
+
+
+_BEST = {}     # (model, precision, sweep, value, mu) -> the map's row of the best estimator
+
+
+@lru_cache(maxsize=1)
+def _shipped() -> dict:
+    """{(model, estimator, sampler, precision): [(names, values, mus, efficiency grid)]}"""
+    if not MAP.exists():
+        return {}
+    out = {}
+    rows = _read_csv(MAP)
+    for r in rows:
+        if r["efficiency"] == 1.0:
+            _BEST[(r["model"], r["precision"], r["sweep"], r["value"], r["mu"])] = r
+    for r in rows:
+        out.setdefault((r["model"], r["estimator"], r["sampler"], r["precision"], r["sweep"]),
+                       {})[(r["value"], r["mu"])] = (r["efficiency"], r["biased"] or
+                                                     r["nonfinite"], r["z"])
+    grids = {}
+    for (model, est, smp, prec, sweep), cells in out.items():
+        values = np.array(sorted({v for v, _ in cells}))
+        mus = np.array(sorted({m for _, m in cells}))
+        g = np.full((len(values), len(mus), 3), np.nan)    # efficiency, biased, z
+        for (v, m), e in cells.items():
+            g[np.searchsorted(values, v), np.searchsorted(mus, m)] = e
+        names = () if sweep == "defaults" else tuple(sweep.split("="))
+        grids.setdefault((model, est, smp, prec), []).append((names, values, mus, g))
+    return grids
+
+
+def _nearest(grid_values, x, log):
+    """Index of the nearest grid value (in log where all are positive)."""
+    gv = np.asarray(grid_values, float)
+    if log and gv.min() > 0:
+        d = np.abs(np.log(gv)[None, :] - np.log(np.maximum(x, gv.min() * 1e-3))[:, None])
+    else:
+        d = np.abs(gv[None, :] - x[:, None])
+    return np.argmin(d, axis=1)
+
+
+def useless_cells(m, mu, estimator: str):
+    """Where the shipped map marks ``estimator`` useless or biased for model ``m`` at the
+    nearest swept value of each swept parameter (the other parameters as given) and the nearest
+    mu: (fraction of points, worst cell's efficiency, its z, an example), or None."""
+    if estimator not in ESTIMATORS:
+        return None
+    smp = m.options.get("sampler", "-") if estimator in ("brdf", "mis") else "-"
+    if smp != "-" and samplers(m.name) == ("-",):
+        smp = "-"
+    grids = _shipped().get((m.name, estimator, smp, m.precision))
+    if not grids:
+        return None
+    mu = np.asarray(mu, float)
+    worst, example, bad_any = None, None, None
+    for names, values, mus, g in grids:
+        if names and not all(n in m.params for n in names):
+            continue
+        x = np.asarray(m.params[names[0]], float) if names else np.zeros(())
+        if names and m.channels > 1 and names[0] in m.config.spectral:
+            x = x[..., 0]
+        xb, mb = (a.ravel() for a in np.broadcast_arrays(x, mu))
+        cell = g[_nearest(values, xb, True), _nearest(mus, mb, True)]
+        eff = np.nan_to_num(cell[:, 0], nan=1.0)
+        bad = (eff < USELESS) | (np.nan_to_num(cell[:, 1]) > 0)
+        bad_any = bad if bad_any is None or bad_any.shape != bad.shape else bad_any | bad
+        if bad.any():
+            k = int(np.argmax(np.where(bad, -eff + cell[:, 1], -np.inf)))
+            if worst is None or eff[k] < worst[0]:
+                best = _BEST.get((m.name, m.precision, sweep_label(names),
+                                  float(values[_nearest(values, xb[k:k + 1], True)[0]]),
+                                  float(mus[_nearest(mus, mb[k:k + 1], True)[0]])))
+                worst = (float(eff[k]), float(cell[k, 2]), best)
+                example = (f"{sweep_label(names)}={xb[k]:.3g}, " if names else "") + \
+                    f"mu={mb[k]:.3g}"
+    if example is None:
+        return None
+    return float(np.mean(bad_any)), worst[0], worst[1], worst[2], example
+
+
+def warn_if_useless(m, mu, estimator: str, stacklevel: int = 3):
+    hit = useless_cells(m, mu, estimator)
+    if hit is None:
+        return
+    frac, eff, z, best, example = hit
+    why = (f"efficiency {eff:.1g} of the best estimator there" if eff < USELESS else
+           "no estimator is efficient there")
+    if z > Z_BIAS:
+        why += f", and the map's estimate was {z:.3g} standard errors from the reference"
+    if best is not None and not best["biased"]:
+        use = f"Use {best['estimator']!r}" + (f" with sampler={best['sampler']!r}"
+                                               if best["sampler"] != "-" else "")
+    else:
+        use = ("Every Monte Carlo estimator was biased there at the map's 2^16 samples: use "
+               "estimator='quadrature' and check its error estimate")
+    warnings.warn(f"estimator={estimator!r} is marked useless by the stability map for "
+                  f"{m.name} at {frac:.0%} of these points (e.g. {example}: {why}; "
+                  f"docs/stability/README.md); its error bar may be far too small. {use}.",
+                  UselessEstimatorWarning, stacklevel=stacklevel)
+
+
+class UselessEstimatorWarning(UserWarning):
+    """An albedo estimator asked for where the stability map marks it useless."""

@@ -1,0 +1,122 @@
+"""The ladder of cheaper variants and ``clbrdf simplest`` (clbrdf/ladder.py): the variants a
+configuration offers, their errors against independent float64 references, the choice, the CLI."""
+import json
+
+import numpy as np
+import pytest
+
+from clbrdf import ladder as L
+from clbrdf.ref import reference
+from cliutil import run_inprocess
+
+
+def labels(name, **kw):
+    return [v.label for v in L.variants(*L.full_config(name, **kw))]
+
+
+def test_variants_follow_the_configuration():
+    got = labels("ggx", alpha=0.3, fresnel="dielectric", eta=1.5, kd=0.2)
+    assert got[:2] == ["full", "single"]
+    for want in ("masking=separable", "masking=vcavity", "masking=none", "fresnel=schlick",
+                 "fresnel=one", "kd=0", "masking=vcavity, fresnel=schlick, kd=0, single"):
+        assert want in got
+    assert len(got) == len(set(got)) == 2 * 4 * 3 * 2
+    # nothing to drop: only the precision and the masking
+    assert set(labels("ggx", alpha=0.3)) == {"full", "single"} | {
+        f"masking={m}{s}" for m in ("separable", "vcavity", "none") for s in ("", ", single")}
+    assert labels("lambert") == ["full", "single"]
+    got = labels("schlick", **L.LADDER_CONFIGS["schlick"])
+    for want in ("directional=eq17", "directional=eq15", "directional=eq12", "spectral=constant",
+                 "material=single", "directional=eq12, spectral=constant, material=single"):
+        assert want in got
+    assert "lobes=one" in labels("low_smooth", lobes="two")
+    assert "kw=0" in labels("holzschuch_pacanowski", kw=1.0)
+    assert "model=ggx" in labels("gtr", gamma=1.5)
+    assert "model=beckmann" in labels("exppow", p=0.7)
+
+
+def _rel(f, ref):
+    return float(np.max(np.abs(f - ref) / np.maximum(np.abs(ref), L.REL_FLOOR * np.abs(ref).max())))
+
+
+def test_value_errors_against_the_float64_references():
+    """Each variant's error is the max relative difference of the references of the variant
+    and of the full configuration (clbrdf.ref, independent of the kernels), within what the
+    kernels' own error against the references allows."""
+    name, kw = L.full_config("ggx", alpha=0.3, fresnel="dielectric", eta=1.5, kd=0.2)
+    vs = L.measure_errors(L.variants(name, kw), "value")
+    wo, wi = L.pairs()
+    full = reference(name, **kw).eval(wo, wi)
+    for v in vs:
+        want = _rel(reference(v.name, **v.kw).eval(wo, wi), full)
+        tol = 1e-5 if v.precision == "double" else 1e-3
+        assert abs(v.error - want) <= tol * max(want, 1), (v.label, v.error, want)
+    # the exact Fresnel term of eta = 1.5 against Schlick's: 17 % at grazing pairs
+    by = {v.label: v for v in vs}
+    assert 0.1 < by["fresnel=schlick"].error < 0.3
+    assert by["single"].error < 1e-5
+
+
+@pytest.mark.parametrize("name, kw, to, bound", [
+    ("gtr", {"alpha": 0.3, "gamma": 2.0}, "model=ggx", 2e-4),       # GTR gamma 2 is GGX
+    ("exppow", {"alpha": 0.3, "p": 1.0}, "model=beckmann", 1e-4),    # exp-power p 1 is Beckmann
+])
+def test_analytic_rung_is_the_same_distribution(name, kw, to, bound):
+    """Where the tabulated model is the analytic one, the rung's error is the table's (docs:
+    max |G1 error| 2e-4 gtr, 1e-5 exppow), both in f and in E; away from it, it is not."""
+    for metric in ("value", "albedo"):
+        vs = L.variants(*L.full_config(name, **kw), precisions=("double",))
+        vs = {v.label: v for v in L.measure_errors([vs[0]] + [v for v in vs if v.label == to],
+                                                   metric)}
+        assert vs[to].error <= bound, (metric, vs[to].error)
+    far = dict(kw, **({"gamma": 1.0} if name == "gtr" else {"p": 0.5}))
+    vs = {v.label: v for v in L.measure_errors(L.variants(*L.full_config(name, **far)), "value")}
+    assert vs[to].error > 0.05
+
+
+def test_simplest_picks_the_fastest_within_tolerance():
+    r = L.simplest("ggx", 1e-3, "value", alpha=0.3, fresnel="dielectric", eta=1.5)
+    assert r.variant.error <= 1e-3
+    timed = [c for c in r.candidates if np.isfinite(c.speedup)]
+    assert all(c.error <= 1e-3 for c in timed[1:])
+    assert r.variant.speedup == max(c.speedup for c in timed)
+    assert {c.label for c in timed} == {"full", "single"}
+    # nothing within 0: the full configuration itself
+    r0 = L.simplest("ggx", 0.0, "albedo", alpha=0.3)
+    assert r0.variant.label == "full" and r0.variant.error == 0 and r0.variant.speedup == 1
+
+
+def test_albedo_metric_against_reference():
+    """metric=albedo: dropping the diffuse term of kd = 0.2 changes E by the Lambertian's
+    albedo over E (the reference's E of both configurations)."""
+    kw = {"alpha": 0.3, "kd": 0.2}
+    vs = L.variants(*L.full_config("ggx", **kw), precisions=("double",))
+    by = {v.label: v for v in L.measure_errors([vs[0]] + [v for v in vs if v.label == "kd=0"],
+                                               "albedo")}
+    want = max(abs(float(reference("ggx", alpha=0.3).albedo(mu)[0])
+                   - float(reference("ggx", **kw).albedo(mu)[0]))
+               / float(reference("ggx", **kw).albedo(mu)[0]) for mu in L.ALBEDO_MUS)
+    assert abs(by["kd=0"].error - want) < 1e-5
+
+
+def test_cli_json_and_text():
+    r = run_inprocess("simplest", "ggx", "--tolerance", "1e-3", "-p", "alpha=0.3", "--json")
+    assert r.returncode == 0, r.stderr
+    d = json.loads(r.stdout)
+    assert set(d) >= {"model", "variant", "error", "speedup", "candidates"}
+    assert d["model"] == "ggx" and d["variant"]["precision"] in ("single", "double")
+    assert d["error"] <= 1e-3
+    assert {c["label"] for c in d["candidates"]} >= {"full", "single", "masking=vcavity"}
+    r = run_inprocess("simplest", "ashikhmin_shirley", "-t", "0.5", "-p", "fresnel=dielectric",
+                      "--metric", "albedo")
+    assert r.returncode == 0, r.stderr
+    assert "cheapest variant within 0.5" in r.stdout and "fresnel=schlick" in r.stdout
+
+
+def test_cli_refuses_bad_input():
+    for args, msg in ((("--tolerance", "-1"), "tolerance"), (("--tolerance", "nan"), "tolerance"),
+                      (("-t", "1e-3", "-p", "alpha=0"), "alpha")):
+        r = run_inprocess("simplest", "ggx", *args)
+        assert r.returncode == 2 and msg in r.stderr, (args, r.stderr)
+    r = run_inprocess("simplest", "ggx", "-t", "1e-3", "--metric", "bogus")
+    assert r.returncode == 2

@@ -1,0 +1,164 @@
+"""The stability map (clbrdf/stability.py): its flags against an independent recomputation,
+the shipped map's coverage, the warnings it drives, and ``clbrdf stability``."""
+import csv
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+import clbrdf
+from clbrdf import stability as S
+from clbrdf.models import get_spec
+from clbrdf.ref import reference
+from cliutil import run_inprocess
+
+
+def test_sweeps_cover_every_model_within_range():
+    from clbrdf.models import _collect
+    assert set(S.SWEEPS) == set(_collect())
+    for name, sweeps in S.SWEEPS.items():
+        spec = get_spec(name)
+        for names, values in sweeps:
+            for n in names:
+                p = spec.param(n)
+                for v in values:        # every swept value is one the model accepts
+                    p.check(np.asarray(v))
+
+
+def test_shipped_map_covers_every_cell():
+    rows = S._read_csv(S.MAP)
+    have = {(r["model"], r["sweep"], r["value"], r["mu"], r["estimator"], r["sampler"],
+             r["precision"]) for r in rows}
+    from clbrdf.spec import MU_MIN
+    for name, sweeps in S.SWEEPS.items():
+        for names, values in sweeps:
+            for v in values:
+                for prec in ("single", "double"):
+                    for mu in (m for m in S.MUS if m >= MU_MIN[prec]):
+                        for est in S.ESTIMATORS:
+                            for smp in (S.samplers(name) if est in ("brdf", "mis") else ("-",)):
+                                key = (name, S.sweep_label(names), float(v), float(mu), est, smp,
+                                       prec)
+                                assert key in have, key
+    # at every cell and precision the best estimator has efficiency 1
+    best = {}
+    for r in rows:
+        k = (r["model"], r["sweep"], r["value"], r["mu"], r["precision"])
+        best[k] = max(best.get(k, 0.0), r["efficiency"])
+    assert all(b == 1.0 for b in best.values())
+
+
+@pytest.fixture(scope="module")
+def small_map(tmp_path_factory):
+    out = tmp_path_factory.mktemp("stab")
+    r = run_inprocess("stability", "ggx", "--out", str(out), "--samples", "4096", "--quiet")
+    assert r.returncode == 0, r.stderr
+    return out
+
+
+def test_small_map_files_and_flags(small_map):
+    rows = S._read_csv(small_map / "stability.csv")
+    assert {r["model"] for r in rows} == {"ggx"}
+    assert (small_map / "ggx.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    text = (small_map / "README.md").read_text()
+    assert "| ggx |" in text
+    with open(small_map / "checks.csv") as f:
+        checks = list(csv.DictReader(f))
+    assert len(checks) == 3 * 2 * len(S.SWEEPS["ggx"][0][1])
+    # the reference column is the float64 reference, within its own error estimate
+    for r in rows[::197]:
+        e, err = reference("ggx", alpha=r["value"]).albedo(r["mu"], 0.0, 1e-7)
+        assert abs(float(e) - r["E_ref"]) <= 4 * (r["ref_err"] + float(err)) + 1e-12
+    for r in rows:
+        # the flags follow from the numbers in the row
+        assert r["biased"] == int(math.isfinite(r["E"]) and r["z"] > S.Z_BIAS)
+        assert r["useless"] == int(r["efficiency"] < S.USELESS)
+        if r["precision"] == "double":
+            assert r["precision_loss"] == 0
+    by = {(r["value"], r["mu"], r["estimator"], r["sampler"], r["precision"]): r for r in rows}
+    # the issue's example: uniform sampling of a near-mirror lobe is useless, visible normals are not
+    for prec in ("single", "double"):
+        assert by[(1e-4, 0.6, "uniform", "-", prec)]["useless"]
+        assert not by[(1e-4, 0.6, "brdf", "vndf", prec)]["useless"]
+        assert by[(1e-4, 0.6, "brdf", "vndf", prec)]["efficiency"] == 1.0
+        assert not by[(1.0, 0.6, "uniform", "-", prec)]["useless"]
+
+
+def test_small_map_reuses_references(small_map):
+    cache = S.ref_cache(small_map / "stability.csv")
+    assert len(cache) == len(S.SWEEPS["ggx"][0][1]) * len(S.MUS)
+
+
+def test_precision_loss_is_single_biased_where_double_is_sound():
+    def row(prec, E=1.0, stderr=0.01, **flags):
+        r = {"model": "m", "sweep": "a", "value": 1.0, "mu": 0.5, "estimator": "brdf",
+             "sampler": "-", "precision": prec, "nonfinite": 0, "biased": 0, "useless": 0,
+             "precision_loss": 0, "E": E, "stderr": stderr}
+        r.update(flags)
+        return r
+    cases = [((row("single", biased=1), row("double", E=0.5)), 1),
+             ((row("single", nonfinite=1), row("double")), 1),
+             ((row("single", nonfinite=1), row("double", nonfinite=1)), 0),
+             # the same draws, the same estimate: heavy tails, not lost digits
+             ((row("single", biased=1), row("double", E=1.01)), 0),
+             ((row("single", biased=1), row("double", E=0.5, biased=1)), 0),
+             ((row("single", biased=1, useless=1), row("double", E=0.5)), 0),
+             ((row("single", biased=1), row("double", E=0.5, useless=1)), 0),
+             ((row("single"), row("double", E=0.5)), 0)]
+    for pair, want in cases:
+        S._mark_precision_loss(list(pair))
+        assert pair[0]["precision_loss"] == want, pair
+
+
+def test_warns_where_the_map_marks_useless():
+    m = clbrdf.Model("ggx", alpha=1e-3)
+    with pytest.warns(S.UselessEstimatorWarning, match=r"uniform.*ggx.*alpha=0.001"):
+        r = clbrdf.albedo(m, 0.6, estimator="uniform", samples=1 << 12)
+    # and the warning is deserved: the estimate misses the reference far beyond its error bar
+    e_ref = float(reference("ggx", alpha=1e-3).albedo(0.6)[0])
+    assert abs(float(r.albedo) - e_ref) > 4 * float(r.stderr)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", S.UselessEstimatorWarning)
+        clbrdf.albedo(m, 0.6, estimator="brdf", samples=1 << 12)
+        clbrdf.albedo(clbrdf.Model("ggx", alpha=0.5), 0.6, estimator="uniform", samples=1 << 12)
+        clbrdf.albedo(m, 0.6, estimator="quadrature")
+
+
+def test_warning_counts_only_the_useless_points():
+    m = clbrdf.Model("ggx", alpha=np.array([1e-3, 0.5, 0.5, 0.5]))
+    with pytest.warns(S.UselessEstimatorWarning, match=r"at 25% of these points"):
+        clbrdf.albedo(m, 0.6, estimator="uniform", samples=1 << 10)
+
+
+def test_cli_warns_and_succeeds():
+    r = run_inprocess("albedo", "ggx", "-p", "alpha=1e-3", "--mu", "0.6", "--estimator",
+                      "uniform", "--samples", "4096")
+    assert r.returncode == 0, r.stderr
+    assert "clbrdf albedo: warning: estimator='uniform' is marked useless" in r.stderr
+
+
+def test_cli_refuses_bad_input_before_work(tmp_path):
+    f = tmp_path / "file"
+    f.write_text("x")
+    r = run_inprocess("stability", "ggx", "--out", str(f))
+    assert r.returncode == 2 and "is a file" in r.stderr
+    r = run_inprocess("stability", "ggx", "--out", str(tmp_path / "o"), "--samples", "10")
+    assert r.returncode == 2 and "samples" in r.stderr
+    r = run_inprocess("stability", "nosuch", "--out", str(tmp_path / "o"))
+    assert r.returncode == 2
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("b", [1e-6, 100.0, 1e8])
+def test_low_smooth_reference_at_grazing(b):
+    """Fixed by the map: the reference's half-vector map lost the horizon distance to
+    cancellation at mu = 1e-12 (E = 0 for a true 0.19). E is continuous from mu = 1e-6 down and
+    agrees with the kernel's brdf estimate in double precision there."""
+    r = reference("low_smooth", b=b)
+    e12, err12 = (float(x) for x in r.albedo(1e-12, 0.0, 1e-10))
+    e6, _ = (float(x) for x in r.albedo(1e-6, 0.0, 1e-10))
+    assert e12 > 0 and abs(e12 - e6) <= 1e-5 * e6
+    k = clbrdf.albedo(clbrdf.Model("low_smooth", b=b, precision="double"), 1e-12,
+                      samples=1 << 16, seed=3)
+    assert abs(float(k.albedo) - e12) <= 4 * float(k.stderr) + 1e-4 * e12
