@@ -24,10 +24,12 @@ Each candidate's error is measured against the full configuration in double prec
 ``metric="value"`` the max relative error of f over a grid of direction pairs (``pairs()``;
 relative to max(f, 1e-3 max f) so that the near-zeros of f do not dominate), for
 ``metric="albedo"`` the max relative error of E over ``ALBEDO_MUS`` (device quadrature to
-1e-8 in double, 1e-6 in single). Its cost is measured: evaluations per second (the ``eval``
-kernel alone over 2^20 direction pairs already on the device: the host's checks and copies
-would hide the difference between variants) and albedo samples per second (``brdf`` estimator, Philox, 64 points x
-2^14 samples), the median of ``REPEATS`` runs, on the device's default width.
+``ALBEDO_TOL``: 1e-7 in double, 1e-6 in single; E errors below those are not resolved). Its
+cost is measured: evaluations per second (the ``eval`` kernel alone, 16 launches over 2^20
+direction pairs already on the device: the host's checks and copies would hide the difference
+between variants, and one launch of a few ms varies by 2x) and albedo samples per second
+(``brdf`` estimator, Philox, 64 points x 2^16 samples), the median of ``REPEATS`` (5) runs, on
+the device's default width.
 
 ``simplest(model, tolerance, metric, **params)`` returns the fastest candidate within tolerance
 with the evidence; ``chart(models, out)`` writes the ladder of each model (at
@@ -49,10 +51,11 @@ import numpy as np
 ALBEDO_MUS = (0.02, 0.1, 0.25, 0.5, 0.75, 1.0)
 PAIR_MUS = (0.02, 0.1, 0.3, 0.5, 0.7, 0.9, 1.0)
 PAIR_PHIS = (0.0, 0.5 * np.pi, np.pi, 1.25 * np.pi)
-EVAL_PAIRS = 1 << 20
-ALBEDO_POINTS, ALBEDO_SAMPLES = 64, 1 << 14
-REPEATS = 3
+EVAL_PAIRS, EVAL_LAUNCHES = 1 << 20, 16     # one timing: 16 launches over 2^20 pairs
+ALBEDO_POINTS, ALBEDO_SAMPLES = 64, 1 << 16
+REPEATS = 5
 REL_FLOOR = 1e-3
+ALBEDO_TOL = {"double": 1e-7, "single": 1e-6}     # the quadrature's tolerance for E errors
 METRICS = ("value", "albedo")
 WIDTHS = (1, 4, 8)            # the ladder also times the full configuration at these widths
 # the full configurations charted under docs/ladder (one per family, every rung exercised)
@@ -271,7 +274,7 @@ def measure_errors(vs: list[Variant], metric: str, device=None) -> list[Variant]
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)
                 e = np.asarray(albedo(m, np.asarray(ALBEDO_MUS), estimator="quadrature",
-                                      tol=1e-8 if v.precision == "double" else 1e-6).albedo,
+                                      tol=ALBEDO_TOL[v.precision]).albedo,
                                float)
             ref = e if ref is None else ref
             v.error = float(np.max(np.abs(e - ref) / np.maximum(np.abs(ref), 1e-12)))
@@ -290,7 +293,8 @@ def measure_speed(vs: list[Variant], metric: str, device=None) -> list[Variant]:
     for v in vs:
         m = _model(v, device)
         launch, _ = m._batch_prepare("eval_batch", (EVAL_PAIRS,), [bwo.T, bwi.T], [m.channels])
-        v.evals_per_s = EVAL_PAIRS / _median_time(launch)
+        v.evals_per_s = EVAL_PAIRS * EVAL_LAUNCHES / _median_time(
+            lambda: [launch() for _ in range(EVAL_LAUNCHES)])
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             v.samples_per_s = ALBEDO_POINTS * ALBEDO_SAMPLES / _median_time(
@@ -446,7 +450,7 @@ def summary(rows, command, seconds) -> str:
              "of cheaper rungs (`clbrdf/ladder.py`) in double and single precision: the max "
              "relative error of f over direction pairs and of E(mu) against the full "
              "configuration in double precision, and the measured evaluations and albedo "
-             "samples per second (median of 3). `clbrdf simplest` picks from the same "
+             "samples per second (median of 5). `clbrdf simplest` picks from the same "
              "candidates for a user's own parameters and tolerance.", ""]
     for name in dict.fromkeys(r["model"] for r in rows):
         rs = [r for r in rows if r["model"] == name]
