@@ -479,12 +479,12 @@ def cmd_simplest(args) -> int:
     from . import ladder
     spec = _spec(args.model)
     params = parse_params(spec, args.param)
-    if args.preset:
-        params["preset"] = args.preset
     if not math.isfinite(args.tolerance) or not 0 <= args.tolerance < 1e6:
         raise ParameterError(f"--tolerance {args.tolerance!r} is out of range: valid tolerance "
                              "is in [0, 1e6) (relative error)")
-    _usable(_model(spec.name, args, params).device)
+    _usable(_model(spec.name, args, params).device)         # the configuration is valid
+    if args.preset:
+        params["preset"] = args.preset
     r = ladder.simplest(spec.name, args.tolerance, args.metric, device=args.device, **params)
     if args.json:
         print(json.dumps(r.to_json()))

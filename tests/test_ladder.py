@@ -113,6 +113,16 @@ def test_cli_json_and_text():
     assert "cheapest variant within 0.5" in r.stdout and "fresnel=schlick" in r.stdout
 
 
+def test_cli_preset():
+    """A preset is an RGB configuration: its variants keep its channels and values."""
+    r = run_inprocess("simplest", "low_microfacet", "--preset", "alum-bronze", "-t", "1e-3",
+                      "--json")
+    assert r.returncode == 0, r.stderr
+    d = json.loads(r.stdout)
+    assert d["variant"]["channels"] == 3 and len(d["variant"]["a"]) == 3
+    assert "kd=0" in {c["label"] for c in d["candidates"]}
+
+
 def test_cli_refuses_bad_input():
     for args, msg in ((("--tolerance", "-1"), "tolerance"), (("--tolerance", "nan"), "tolerance"),
                       (("-t", "1e-3", "-p", "alpha=0"), "alpha")):
