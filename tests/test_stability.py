@@ -162,3 +162,39 @@ def test_low_smooth_reference_at_grazing(b):
     k = clbrdf.albedo(clbrdf.Model("low_smooth", b=b, precision="double"), 1e-12,
                       samples=1 << 16, seed=3)
     assert abs(float(k.albedo) - e12) <= 4 * float(k.stderr) + 1e-4 * e12
+
+
+def test_shipped_map_claims():
+    """What README.md and docs/stability/findings.md say of the shipped map."""
+    rows = S._read_csv(S.MAP)
+    assert not any(r["nonfinite"] for r in rows)
+    assert not any(r["precision_loss"] for r in rows)
+    with open(S.MAP.resolve().parent / "checks.csv") as f:
+        assert all(c["passed"] == "1" for c in csv.DictReader(f))
+    # biased where the estimator is otherwise useful: Schlick 1994 at grazing angles only
+    bad = [r for r in rows if r["biased"] and not r["useless"]]
+    assert bad and all(r["model"] == "schlick" and r["mu"] <= 1e-6 and r["value"] <= 1e-3
+                       for r in bad)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["ggx", "low_smooth", "schlick"])
+def test_map_reproduces_with_another_seed(name, monkeypatch):
+    """A fresh measurement with another seed (references from the shipped map) finds no
+    non-finite estimate, no precision loss, and no biased cell of an efficient estimator (within
+    10x of the best at the cell) outside Schlick's grazing region; the useless cells agree with
+    the shipped map's at 90 %. Between 1e-2 and 1e-1 of the best, rare events still decide some
+    cells: seed 12345 puts low_smooth B = 1e6, mu = 0.1, cosine sampling at 6.2e-6 +- 1.1e-6 for
+    1.2e-5 (efficiency 0.015), a miss of the weights' tail, not a defect of the kernel."""
+    monkeypatch.setattr(S, "SEED", 12345)
+    refs = {k[1:]: v for k, v in S.ref_cache(S.MAP).items() if k[0] == name}
+    rows, checks = S.measure(name, refs)
+    assert not any(r["nonfinite"] or r["precision_loss"] for r in rows)
+    assert all(c["passed"] for c in checks)
+    for r in rows:
+        if r["biased"] and r["efficiency"] >= 10 * S.USELESS:
+            assert name == "schlick" and r["mu"] <= 1e-6 and r["value"] <= 1e-3, r
+    shipped = {S._key(r) + (r["precision"],): r["useless"] for r in S._read_csv(S.MAP)
+               if r["model"] == name}
+    same = np.mean([shipped[S._key(r) + (r["precision"],)] == r["useless"] for r in rows])
+    assert same >= 0.9, same
