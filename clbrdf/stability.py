@@ -67,6 +67,7 @@ SWEEPS = {
 MUS = (1e-12, 1e-6, 1e-4, 1e-3, 1e-2, 0.1, 0.3, 0.6, 1.0)
 ESTIMATORS = ("uniform", "cosine", "brdf", "mis")
 SAMPLES = 1 << 16
+QUAD_MAX_EVALS = 1 << 20     # the quadrature's evaluations per cell at most
 SEED = 11
 Z_BIAS = 4.0
 USELESS = 1e-2          # relative efficiency below which an estimator is marked useless
@@ -225,6 +226,8 @@ def measure(name: str, refs: dict, *, samples: int = SAMPLES, precisions=("singl
                             "nonfinite": int(not fin), "biased": int(fin and z > Z_BIAS),
                             "useless": int(rel[i, j] < USELESS), "precision_loss": 0,
                             "seconds": t * samples, "ref_version": ref_version(name)})
+            rows += _quadrature_rows(name, names, vals, mus, prec, e_ref, r_err, eps_floor,
+                                     sweep)
             for v in vals:
                 for c in _run_checks(name, names, float(v), prec):
                     checks.append({"model": name, "sweep": sweep, "value": float(v),
@@ -234,6 +237,44 @@ def measure(name: str, refs: dict, *, samples: int = SAMPLES, precisions=("singl
                 progress(f"{name} {sweep} {prec}")
     _mark_precision_loss(rows)
     return rows, checks
+
+
+def _quadrature_rows(name, names, vals, mus, prec, e_ref, r_err, eps_floor, sweep):
+    """The deterministic quadrature at every cell, to its default tolerance and at most
+    QUAD_MAX_EVALS evaluations per point: biased when it is further from the reference than
+    its own error estimate (or the tolerance) plus what the Lambda tables allow (3 |dG1| E) and
+    the reference's error; useless when it stopped short of the tolerance. Its efficiency is
+    not comparable with Monte Carlo's (NaN)."""
+    from .core import Model, albedo
+    from .models import LAMBDA_TABLE_G1_ERROR
+    m = Model(name, precision=prec, **_kw(names, vals[:, None] if names else None)) if names \
+        else Model(name, precision=prec)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        t = time.perf_counter()
+        r = albedo(m, mus, estimator="quadrature", max_evals=QUAD_MAX_EVALS)
+        secs = time.perf_counter() - t
+    e = np.broadcast_to(np.asarray(r.albedo, float), e_ref.shape)
+    err = np.broadcast_to(np.asarray(r.stderr, float), e_ref.shape)
+    ev = np.broadcast_to(np.asarray(r.evaluations, float), e_ref.shape)
+    table = 3 * LAMBDA_TABLE_G1_ERROR.get(name, 0.0) * np.abs(e_ref)
+    allowed = np.maximum(err, r.tol) + table + r_err + eps_floor
+    rows = []
+    for i, v in enumerate(vals):
+        for j, mu in enumerate(mus):
+            fin = bool(np.isfinite(e[i, j]) and np.isfinite(err[i, j]))
+            dev = abs(e[i, j] - e_ref[i, j])
+            rows.append({
+                "model": name, "sweep": sweep, "value": float(v), "mu": float(mu),
+                "estimator": "quadrature", "sampler": "-", "precision": prec,
+                "E": float(e[i, j]), "stderr": float(err[i, j]), "E_ref": float(e_ref[i, j]),
+                "ref_err": float(r_err[i, j]),
+                "z": float(dev / allowed[i, j]) if fin else math.inf,
+                "efficiency": math.nan, "nonfinite": int(not fin),
+                "biased": int(fin and dev > allowed[i, j]),
+                "useless": int(fin and err[i, j] > r.tol), "precision_loss": 0,
+                "seconds": secs * ev[i, j] / max(ev.sum(), 1), "ref_version": ref_version(name)})
+    return rows
 
 
 def _key(r):
@@ -313,7 +354,9 @@ def plot(rows: list[dict], fileobj, name: str):
                     r = idx.get((sweep, prec, est, smp, v, mu))
                     if r is None:
                         continue
-                    grid[j, i] = math.log10(max(r["efficiency"], 1e-6))
+                    quad = r["estimator"] == "quadrature"
+                    grid[j, i] = (-6.0 if r["useless"] else 0.0) if quad else \
+                        math.log10(max(r["efficiency"], 1e-6))
                     mark = "N" if r["nonfinite"] else "P" if r["precision_loss"] else \
                         "B" if r["biased"] else ""
                     if mark:
@@ -331,7 +374,8 @@ def plot(rows: list[dict], fileobj, name: str):
             ax.set_xlabel(sweep, fontsize=7)
     fig.suptitle(f"{name}: log10 efficiency relative to the best estimator (N non-finite, "
                  f"B biased > {Z_BIAS:g} se, red where the estimator is not useless; "
-                 "P precision lost in single; grey: mu not accepted)", fontsize=9)
+                 "P precision lost in single; grey: mu not accepted; quadrature: dark where "
+                 "it stopped short of its tolerance)", fontsize=9)
     fig.colorbar(im, ax=axes, shrink=0.6, label="log10 relative efficiency")
     fig.savefig(fileobj, format="png", dpi=90)
     plt.close(fig)
@@ -362,7 +406,10 @@ def summary(rows, checks, command, seconds, before=None, samples=SAMPLES,
              "best estimator at the cell; N non-finite, B biased, P precision lost in single).",
              "", f"A cell is *useless* for an estimator when its efficiency is below {USELESS:g} "
              "of the best estimator's there (it needs over 100 times the time for the same "
-             "error); `clbrdf albedo` and `clbrdf.albedo` warn when asked for such a cell "
+             "error), and the quadrature where it stopped short of its tolerance (at most "
+             f"{QUAD_MAX_EVALS} evaluations per cell; it is biased where further from the "
+             "reference than its error estimate, the tolerance and the Lambda tables' accuracy "
+             "allow); `clbrdf albedo` and `clbrdf.albedo` warn when asked for such a cell "
              f"(the map ships as `clbrdf/data/stability.csv`). *Biased*: more than {Z_BIAS:g} "
              "standard errors from the reference; by chance alone about "
              f"{len(rows) * 2 * 3.17e-5:.1f} of the {len(rows)} cells.", ""]
@@ -376,10 +423,12 @@ def summary(rows, checks, command, seconds, before=None, samples=SAMPLES,
                      f"{c['precision_loss']} | {c['useless']} |")
     if before:
         bc = _counts(before)
-        lines += ["", "## Before and after", "",
+        had = {(r["model"], r["estimator"]) for r in before}
+        ac = _counts([r for r in rows if (r["model"], r["estimator"]) in had])
+        lines += ["", "## Before and after", "", "Over the estimators both maps have.", "",
                   "| model | non-finite | biased | precision loss | useless |",
                   "|---|---:|---:|---:|---:|"]
-        for name, c in counts.items():
+        for name, c in ac.items():
             b = bc.get(name)
             if b:
                 lines.append(f"| {name} | " + " | ".join(
@@ -399,7 +448,7 @@ def summary(rows, checks, command, seconds, before=None, samples=SAMPLES,
     lines += ["", "## Useless regions (estimator: where, per model)", ""]
     for name in counts:
         parts = []
-        for est in ESTIMATORS:
+        for est in ESTIMATORS + ("quadrature",):
             bad = [r for r in rows if r["model"] == name and r["estimator"] == est
                    and r["useless"]]
             if bad:

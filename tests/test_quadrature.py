@@ -18,11 +18,10 @@ import pytest
 import clbrdf
 from clbrdf import runtime
 from clbrdf.core import QUAD_TOL
-from clbrdf.models import MODELS
+from clbrdf.models import LAMBDA_TABLE_G1_ERROR as TABLE_DG1, MODELS
 from clbrdf.ref import reference
 
 MUS = (1e-3, 0.02, 0.05, 0.2, 0.5, 0.8, 1.0)
-TABLE_DG1 = {"gtr": 2e-4, "sgd": 1e-4, "exppow": 1e-5, "holzschuch_pacanowski": 1e-5}
 ROUGH = {"ggx": {"alpha": 1e-3}, "beckmann": {"alpha": 1e-3}, "exppow": {"alpha": 1e-3},
          "gtr": {"alpha": 1e-3}, "sgd": {"alpha": 1e-3},
          "ward": {"alpha_x": 1e-3, "alpha_y": 1e-3}, "holzschuch_pacanowski": {"sigma": 1e-3}}

@@ -9,6 +9,9 @@ import pkgutil
 from ..spec import ModelSpec, ParameterError
 
 _FIRST = ("lambert", "microfacet")
+# max |G1 error| of the tabulated Smith Lambda over every accepted parameter and direction
+# (scripts/measure_lambda_tables.py, docs/models/distributions.md)
+LAMBDA_TABLE_G1_ERROR = {"gtr": 2e-4, "sgd": 1e-4, "exppow": 1e-5, "holzschuch_pacanowski": 1e-5}
 
 
 def _collect() -> dict[str, ModelSpec]:
