@@ -504,6 +504,11 @@ def stability_map(models=None, out="stability", *, samples: int = SAMPLES,
         all_checks += checks
     kept = [r for r in _read_csv(out / "stability.csv") if r["model"] not in names] \
         if (out / "stability.csv").exists() else []
+    kept_checks = []
+    if (out / "checks.csv").exists():
+        with open(out / "checks.csv", newline="") as f:
+            kept_checks = [c for c in csv.DictReader(f) if c["model"] not in names]
+    all_checks = kept_checks + all_checks
     before_rows = _read_csv(before) if before else None
     if before_rows:
         _mark_precision_loss(before_rows)        # the rule of this code, for comparison

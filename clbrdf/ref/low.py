@@ -307,6 +307,11 @@ class HalfMap:
         return np.arcsinh(np.tan((np.pi / 2 + delta) / 2) / self.a)
 
     def points(self, s, t):
+        # s -> 1 - (1 - s)^2 puts nodes into the horizon edge, where the integrand has a
+        # square-root endpoint (Gauss rules of two orders agreed there on a value 4e-7 off, with
+        # an error estimate of 2e-17: low_microfacet B = 1 at normal incidence)
+        ds = 2 * (1 - s)
+        s = 1 - (1 - s) ** 2
         phi = 2 * np.pi * t
         X = self._xmax(phi)
         rho = np.sinh(s * X)
@@ -316,7 +321,7 @@ class HalfMap:
         h = np.stack([st * np.cos(phi), st * np.sin(phi), ct], -1)
         oh = h @ self.wo
         wi = 2 * oh[..., None] * h - self.wo
-        jac = 4 * oh * ct ** 3 * self.a ** 2 * rho * np.cosh(s * X) * X * 2 * np.pi
+        jac = 4 * oh * ct ** 3 * self.a ** 2 * rho * np.cosh(s * X) * X * 2 * np.pi * ds
         return wi, jac
 
     def coords(self, wi):
@@ -324,6 +329,7 @@ class HalfMap:
         t = np.mod(np.arctan2(h[..., 1], h[..., 0]) / (2 * np.pi), 1.0)
         rho = np.hypot(h[..., 0], h[..., 1]) / h[..., 2] / self.a
         s = np.arcsinh(rho) / self._xmax(2 * np.pi * t)
+        s = 1 - np.sqrt(np.clip(1 - s, 0, 1))                  # the inverse of the edge map
         return np.clip(s, 0, 1 - 1e-12), np.clip(t, 0, 1 - 1e-12)
 
     def density(self, wi):
