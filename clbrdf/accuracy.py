@@ -236,7 +236,7 @@ def chart(models=None, out="accuracy", *, max_log2: int = 20, precisions=("singl
     The files are written together once everything is measured (clbrdf.tables' staged writes:
     a kill at any moment leaves the old files or the new ones)."""
     from .models import get_spec
-    from .tables import _Staged, _sync_close
+    from .tables import csv_text, write_together
     names = [get_spec(n).name for n in (models or list(CASES))]
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -250,22 +250,7 @@ def chart(models=None, out="accuracy", *, max_log2: int = 20, precisions=("singl
         charts[name] = io.BytesIO()
         plot(rows, charts[name], name)
         all_rows += rows
-    staged = _Staged()
-    try:
-        for name, png in charts.items():
-            f = staged.open(out / f"{name}.png", "wb")
-            f.write(png.getvalue())
-            _sync_close(f)
-        f = staged.open(out / "accuracy.csv", "w")
-        w = csv.DictWriter(f, fieldnames=FIELDS)
-        w.writeheader()
-        w.writerows(all_rows)
-        _sync_close(f)
-        f = staged.open(out / "README.md", "w")
-        f.write(summary(all_rows, command, time.perf_counter() - t0))
-        _sync_close(f)
-        staged.commit()
-    except BaseException:
-        staged.discard()
-        raise
+    write_together({**{out / f"{n}.png": png.getvalue() for n, png in charts.items()},
+                    out / "accuracy.csv": csv_text(all_rows, FIELDS),
+                    out / "README.md": summary(all_rows, command, time.perf_counter() - t0)})
     return out

@@ -433,21 +433,29 @@ def cmd_table(args) -> int:
     return 0
 
 
-def cmd_accuracy(args) -> int:
-    from . import accuracy
-    from .runtime import check_int
+def _chart_job(args):
+    """(model names or None, output directory, command line, precisions) of a command that
+    measures and writes a directory of charts (accuracy, stability, ladder), checked before
+    any work."""
     names = [_spec(n).name for n in args.model] or None
-    check_int("max-log2-samples", args.max_log2_samples, 6, 30)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ParameterError(f"--out {args.out!r} is a file; give a directory")
-    precisions = ("single", "double") if args.precision == "both" else (args.precision,)
+    prec = getattr(args, "precision", "both")
+    precisions = ("single", "double") if prec == "both" else (prec,)
+    return names, out, " ".join(["clbrdf"] + [_quote(a) for a in args.argv]), precisions
+
+
+def cmd_accuracy(args) -> int:
+    from . import accuracy
+    from .runtime import check_int
+    names, out, command, precisions = _chart_job(args)
+    check_int("max-log2-samples", args.max_log2_samples, 6, 30)
 
     def show(r):
         print(f"{r['model']:22s} {r['precision']:6s} {accuracy.label(r['estimator'], r['rng'] == 'sobol'):15s} "
               f"{r['samples']:>12.0f} per point {r['seconds']:8.3f} s  max error {r['max']:.2e}  "
               f"rms {r['rms']:.2e}", flush=True)
-    command = " ".join(["clbrdf"] + [_quote(a) for a in args.argv])
     accuracy.chart(names, out, max_log2=args.max_log2_samples, precisions=precisions,
                    command=command, progress=None if args.quiet else show)
     print(f"wrote {out / 'accuracy.csv'}, {out / 'README.md'} and one PNG per model")
@@ -457,16 +465,11 @@ def cmd_accuracy(args) -> int:
 def cmd_stability(args) -> int:
     from . import stability
     from .runtime import check_int
-    names = [_spec(n).name for n in args.model] or None
+    names, out, command, precisions = _chart_job(args)
     check_int("samples", args.samples, 1024, 1 << 24, "[1024, 2^24]")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise ParameterError(f"--out {args.out!r} is a file; give a directory")
     if args.before and not Path(args.before).is_file():
         raise ParameterError(f"--before {args.before!r} is not a file; give an earlier "
                              "stability.csv")
-    precisions = ("single", "double") if args.precision == "both" else (args.precision,)
-    command = " ".join(["clbrdf"] + [_quote(a) for a in args.argv])
     stability.stability_map(names, out, samples=args.samples, precisions=precisions,
                             before=args.before, command=command,
                             progress=None if args.quiet else lambda s: print(s, flush=True))
@@ -503,15 +506,11 @@ def cmd_simplest(args) -> int:
 
 def cmd_ladder(args) -> int:
     from . import ladder
-    names = [_spec(n).name for n in args.model] or None
+    names, out, command, _ = _chart_job(args)
     for n in names or ():
         if n not in ladder.LADDER_CONFIGS:
             raise ParameterError(f"model={n!r} has no ladder configuration: valid models are "
                                  f"{', '.join(ladder.LADDER_CONFIGS)}")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise ParameterError(f"--out {args.out!r} is a file; give a directory")
-    command = " ".join(["clbrdf"] + [_quote(a) for a in args.argv])
     ladder.chart(names, out, device=args.device, command=command,
                  progress=None if args.quiet else lambda s: print(s, flush=True))
     print(f"wrote {out / 'ladder.csv'}, {out / 'README.md'} and one PNG per model")
@@ -554,6 +553,19 @@ def _quote(a: str) -> str:
 
 
 # ---------------------------------------------------------------------------------------------
+
+def chart_args(p, default_out: str, models_help: str, line: str, precision: bool = True):
+    """MODEL ..., --out DIR, [--precision], --quiet of a command that writes a chart directory."""
+    p.add_argument("model", metavar="MODEL", nargs="*", help=models_help)
+    p.add_argument("--out", "-o", default=default_out, metavar="DIR",
+                   help=f"output directory (default ./{default_out}; docs/{default_out} in the "
+                        "repository)")
+    if precision:
+        from .core import PRECISIONS
+        p.add_argument("--precision", choices=PRECISIONS + ("both",), default="both",
+                       help="kernel arithmetic (default both)")
+    p.add_argument("--quiet", "-q", action="store_true", help=f"no line per {line}")
+
 
 def build_parser() -> argparse.ArgumentParser:
     from .core import ESTIMATORS, PRECISIONS
@@ -662,14 +674,9 @@ def build_parser() -> argparse.ArgumentParser:
                                    "points; quadrature), single and double precision. Writes "
                                    "DIR/accuracy.csv, DIR/MODEL.png and DIR/README.md (the fastest "
                                    "estimator per target error).")
-    p.add_argument("model", metavar="MODEL", nargs="*", help=f"models (default: all of {models})")
-    p.add_argument("--out", "-o", default="accuracy", metavar="DIR",
-                   help="output directory (default ./accuracy; docs/accuracy in the repository)")
+    chart_args(p, "accuracy", f"models (default: all of {models})", "run")
     p.add_argument("--max-log2-samples", type=int, default=20, metavar="K",
                    help="largest Monte Carlo count per point, 2^K (default 20)")
-    p.add_argument("--precision", choices=PRECISIONS + ("both",), default="both",
-                   help="kernel arithmetic (default both)")
-    p.add_argument("--quiet", "-q", action="store_true", help="no line per run")
     p.set_defaults(func=cmd_accuracy)
 
     p = sub.add_parser("stability", parents=[dev], help="map where each albedo estimator "
@@ -681,16 +688,11 @@ def build_parser() -> argparse.ArgumentParser:
                        "precision lost in single; with clbrdf check's finite, non-negative and "
                        "weight checks at each swept value. Writes DIR/stability.csv, "
                        "DIR/checks.csv, DIR/MODEL.png (heat maps) and DIR/README.md.")
-    p.add_argument("model", metavar="MODEL", nargs="*", help=f"models (default: all of {models})")
-    p.add_argument("--out", "-o", default="stability", metavar="DIR",
-                   help="output directory (default ./stability; docs/stability in the repository)")
+    chart_args(p, "stability", f"models (default: all of {models})", "sweep")
     p.add_argument("--samples", type=int, default=1 << 16, metavar="N",
                    help="Monte Carlo samples per cell (default 65536)")
-    p.add_argument("--precision", choices=PRECISIONS + ("both",), default="both",
-                   help="kernel arithmetic (default both)")
     p.add_argument("--before", metavar="CSV", help="an earlier stability.csv: README.md then "
                    "compares the failure counts")
-    p.add_argument("--quiet", "-q", action="store_true", help="no line per sweep")
     p.set_defaults(func=cmd_stability)
 
     p = sub.add_parser("simplest", parents=[dev], help="the cheapest variant of a "
@@ -719,11 +721,8 @@ def build_parser() -> argparse.ArgumentParser:
                                    "relative error of f and of E against the full model in double, "
                                    "and its measured evaluations and albedo samples per second. "
                                    "Writes DIR/ladder.csv, DIR/MODEL.png and DIR/README.md.")
-    p.add_argument("model", metavar="MODEL", nargs="*", help="models (default: all with a "
-                   "ladder configuration)")
-    p.add_argument("--out", "-o", default="ladder", metavar="DIR",
-                   help="output directory (default ./ladder; docs/ladder in the repository)")
-    p.add_argument("--quiet", "-q", action="store_true", help="no line per model")
+    chart_args(p, "ladder", "models (default: all with a ladder configuration)", "model",
+               precision=False)
     p.set_defaults(func=cmd_ladder)
 
     p = sub.add_parser("check", parents=[dev], help="property checks of one configuration",

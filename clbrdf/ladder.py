@@ -37,9 +37,7 @@ with the evidence; ``chart(models, out)`` writes the ladder of each model (at
 """
 from __future__ import annotations
 
-import csv
 import io
-import itertools
 import json
 import time
 import warnings
@@ -408,7 +406,7 @@ def chart(models=None, out="ladder", *, device=None, command="clbrdf.ladder.char
           progress=None) -> Path:
     """Measure the ladder of each model at LADDER_CONFIGS and write ladder.csv, MODEL.png and
     README.md to ``out`` (staged: a kill leaves the old files or the new ones)."""
-    from .tables import _Staged, _sync_close
+    from .tables import csv_text, write_together
     names = list(models or LADDER_CONFIGS)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -422,24 +420,9 @@ def chart(models=None, out="ladder", *, device=None, command="clbrdf.ladder.char
         all_rows += rows
         if progress:
             progress(name)
-    staged = _Staged()
-    try:
-        for name, png in charts.items():
-            f = staged.open(out / f"{name}.png", "wb")
-            f.write(png.getvalue())
-            _sync_close(f)
-        f = staged.open(out / "ladder.csv", "w")
-        w = csv.DictWriter(f, fieldnames=FIELDS)
-        w.writeheader()
-        w.writerows(all_rows)
-        _sync_close(f)
-        f = staged.open(out / "README.md", "w")
-        f.write(summary(all_rows, command, time.perf_counter() - t0))
-        _sync_close(f)
-        staged.commit()
-    except BaseException:
-        staged.discard()
-        raise
+    write_together({**{out / f"{n}.png": png.getvalue() for n, png in charts.items()},
+                    out / "ladder.csv": csv_text(all_rows, FIELDS),
+                    out / "README.md": summary(all_rows, command, time.perf_counter() - t0)})
     return out
 
 

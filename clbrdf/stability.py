@@ -481,7 +481,7 @@ def stability_map(models=None, out="stability", *, samples: int = SAMPLES,
     a kill leaves the old files or the new ones). References are taken from ``out``'s earlier
     stability.csv where it has the cell. ``before``: an earlier stability.csv to compare with."""
     from .models import get_spec
-    from .tables import _Staged, _sync_close
+    from .tables import csv_text, write_together
     names = [get_spec(n).name for n in (models or list(SWEEPS))]
     for n in names:
         if n not in SWEEPS:
@@ -512,27 +512,12 @@ def stability_map(models=None, out="stability", *, samples: int = SAMPLES,
     before_rows = _read_csv(before) if before else None
     if before_rows:
         _mark_precision_loss(before_rows)        # the rule of this code, for comparison
-    staged = _Staged()
-    try:
-        for name, png in charts.items():
-            f = staged.open(out / f"{name}.png", "wb")
-            f.write(png.getvalue())
-            _sync_close(f)
-        for fname, fields, data in (("stability.csv", FIELDS, kept + all_rows),
-                                    ("checks.csv", CHECK_FIELDS, all_checks)):
-            f = staged.open(out / fname, "w")
-            w = csv.DictWriter(f, fieldnames=fields, extrasaction="ignore")
-            w.writeheader()
-            w.writerows(data)
-            _sync_close(f)
-        f = staged.open(out / "README.md", "w")
-        f.write(summary(kept + all_rows, all_checks, command, time.perf_counter() - t0,
-                        before_rows, samples, (out / "findings.md").exists()))
-        _sync_close(f)
-        staged.commit()
-    except BaseException:
-        staged.discard()
-        raise
+    write_together({**{out / f"{n}.png": png.getvalue() for n, png in charts.items()},
+                    out / "stability.csv": csv_text(kept + all_rows, FIELDS),
+                    out / "checks.csv": csv_text(all_checks, CHECK_FIELDS),
+                    out / "README.md": summary(kept + all_rows, all_checks, command,
+                                               time.perf_counter() - t0, before_rows, samples,
+                                               (out / "findings.md").exists())})
     return out
 
 

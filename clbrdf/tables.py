@@ -149,6 +149,32 @@ def _sync_close(f):
     f.close()
 
 
+def csv_text(rows, fields) -> str:
+    """Rows (dicts) as CSV text with a header line; keys not in ``fields`` are left out."""
+    import csv
+    import io
+    buf = io.StringIO(newline="")
+    w = csv.DictWriter(buf, fieldnames=fields, extrasaction="ignore")
+    w.writeheader()
+    w.writerows(rows)
+    return buf.getvalue()
+
+
+def write_together(files: dict) -> None:
+    """Write {path: bytes or str} so that a kill at any moment leaves all the old files or all
+    the new ones (staged temporary files, moved into place together)."""
+    staged = _Staged()
+    try:
+        for path, data in files.items():
+            f = staged.open(Path(path), "wb" if isinstance(data, bytes) else "w")
+            f.write(data)
+            _sync_close(f)
+        staged.commit()
+    except BaseException:
+        staged.discard()
+        raise
+
+
 # ---------------------------------------------------------------------------------------------
 # table structure
 

@@ -130,3 +130,13 @@ def test_cli_refuses_bad_input():
         assert r.returncode == 2 and msg in r.stderr, (args, r.stderr)
     r = run_inprocess("simplest", "ggx", "-t", "1e-3", "--metric", "bogus")
     assert r.returncode == 2
+
+
+def test_cli_ladder_refuses_bad_input_before_work(tmp_path):
+    f = tmp_path / "file"
+    f.write_text("x")
+    r = run_inprocess("ladder", "ggx", "--out", str(f))
+    assert r.returncode == 2 and "is a file" in r.stderr
+    r = run_inprocess("ladder", "lambert", "--out", str(tmp_path / "o"))
+    assert r.returncode == 2 and "no ladder configuration" in r.stderr
+    assert not (tmp_path / "o").exists()
