@@ -7,9 +7,9 @@
 #
 # Steps: python3 with venv (apt-get install python3-venv if missing), a venv in .venv
 # (CLBRDF_VENV overrides), pip install -e '.[test]' (again only when pyproject.toml changes),
-# then a probe for a working OpenCL device. PyPI's PoCL (LLVM 14) fails on CPUs that LLVM 14
-# does not know ("unknown target CPU"); then Debian's PoCL is installed with apt-get when running
-# as root, or the apt command is printed.
+# then Debian's PoCL (as root, when missing) and a probe for a working OpenCL device. PyPI's PoCL
+# (LLVM 14) fails on CPUs that LLVM 14 does not know ("unknown target CPU") and is slower where it
+# works; without root and without a working device the apt command is printed.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")"
 
@@ -62,8 +62,13 @@ if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$WANT" ]; then
     echo "$WANT" > "$STAMP"
 fi
 
-# 4. a working OpenCL device
+# 4. a working OpenCL device. Debian's PoCL (3.1, LLVM 15) is installed as root even where PyPI's
+# (3.0-rc2, LLVM 14) works: on a Xeon it ran GGX albedo twice as fast (benchmarks/RESULTS.md).
 probe() { "$VENV/bin/python" -c 'import clbrdf; clbrdf.get_device()' 2>&1; }
+if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1 \
+        && ! dpkg -s pocl-opencl-icd >/dev/null 2>&1; then
+    apt_install pocl-opencl-icd
+fi
 if ! msg=$(probe); then
     say "no working OpenCL device yet: $(echo "$msg" | tail -n 1)"
     apt_install pocl-opencl-icd

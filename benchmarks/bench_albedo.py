@@ -440,6 +440,16 @@ def median(xs):
     return statistics.median(xs) if xs else float("nan")
 
 
+def other_devices(args) -> list:
+    """Selectors of the --other-device rows: as given, or every other device whose compiler works."""
+    if args.other_device is not None:
+        return [d for d in args.other_device if d != "none"]
+    from clbrdf.device import compiler_error, get_device, list_devices
+    main = get_device(args.device).info.selector
+    return [d.selector for d in list_devices() if d.selector != main
+            and compiler_error((d.platform_index, d.device_index)) is None]
+
+
 def build_report(args, rows, info, reference, skipped, load):
     by = {r.key: r for r in rows}
     base = by["clbrdf"]
@@ -484,6 +494,13 @@ def build_report(args, rows, info, reference, skipped, load):
             q, lo, hi = ratio(base, by[k])
             qc = median(base.cpu_rates()) / median(by[k].cpu_rates())
             L.append(f"- clbrdf / {k}: **{q:.1f}x** ({lo:.1f} - {hi:.1f}); per CPU-second {qc:.1f}x")
+    for r in rows:
+        if r.key.startswith("clbrdf@"):
+            q, lo, hi = ratio(base, r)
+            qc = median(base.cpu_rates()) / median(r.cpu_rates())
+            L.append(f"- clbrdf / {r.key} (the same kernel on another device, "
+                     f"{r.model.device.info.platform}): **{q:.1f}x** ({lo:.1f} - {hi:.1f}); "
+                     f"per CPU-second {qc:.1f}x")
     for k in ("clbrdf-beckmann-vndf", "clbrdf-beckmann-ndf"):
         if k in by:
             q, lo, hi = ratio(base, by[k])
@@ -510,7 +527,7 @@ def build_report(args, rows, info, reference, skipped, load):
                   f"{ncu * median(base.cpu_rates()):.0f} M samples/s (an estimate, not a measurement).")
     L.append("")
     L.append("Agreement of the warm-up estimates (z = difference / combined stderr per mu; the clbrdf "
-             "rows use seeds 0-4, NumPy PCG64 seed 12345, Mitsuba's independent sampler seeds 7000 + first point of each launch, so the estimates are "
+             "rows use distinct seeds (0-7), NumPy PCG64 seed 12345, Mitsuba's independent sampler seeds 7000 + first point of each launch, so the estimates are "
              "independent; for equal estimators max |z| over the mu is typically below ~3.5 and mean "
              "z^2 near 1; the qmc row's stderr is the spread of 16 scrambles, the uniform row is "
              "another estimator of the same integral):")
@@ -591,6 +608,9 @@ def main(argv=None):
     ap.add_argument("--pocl-cache", action="store_true",
                     help="keep PoCL's on-disk kernel cache (default: off, so compile times are cold)")
     ap.add_argument("--device", default=None, help="clbrdf device selector")
+    ap.add_argument("--other-device", action="append", default=None, metavar="SEL",
+                    help="add a 'clbrdf brdf, single' row on this device too (repeatable; default: "
+                         "every other working device, e.g. a second PoCL; 'none' for none)")
     ap.add_argument("--note", action="append", default=[],
                     help="a remark to add to the report (repeatable)")
     ap.add_argument("--write", action="store_true", help=f"record the results in {RESULTS.name}")
@@ -627,6 +647,11 @@ def main(argv=None):
         ClbrdfRow(mus, 1 << args.log2_double, A, "clbrdf-beckmann-ndf",
                   "clbrdf Beckmann brdf (normals), single", device=args.device, seed=6,
                   model="beckmann", sampler="ndf"),
+    ]
+    for sel in other_devices(args):
+        rows.append(ClbrdfRow(mus, S, A, f"clbrdf@{sel}", f"clbrdf brdf, single, on {sel}",
+                              device=sel, seed=7))
+    rows += [
         NumpyRow(mus, 1 << args.log2_numpy, A, np.float32),
         NumpyRow(mus, 1 << args.log2_numpy, A, np.float32, chunk=1 << args.log2_numpy_small_chunk,
                  key="numpy-f32-small"),

@@ -29,8 +29,8 @@ EXIT_DEVICE = 3
 EXIT_CHECK_FAILED = 4
 
 DEVICE_HELP = ("OpenCL device: P:D as 'clbrdf devices' lists it, or a substring of the device or "
-               "platform name (default: env CLBRDF_DEVICE, else the first GPU, else the first CPU "
-               "whose compiler works)")
+               "platform name (default: env CLBRDF_DEVICE, else the first GPU, else the CPU of "
+               "the newest PoCL, else the first CPU, whose compiler works)")
 
 
 class _Once(argparse.Action):
@@ -211,7 +211,7 @@ def cmd_devices(args) -> int:
             if r[6]:
                 print(" " * (sum(w) + 2 * len(w)) + f"compiler: {r[6]}")
         src = ("--device" if args.device else "CLBRDF_DEVICE" if os.environ.get("CLBRDF_DEVICE")
-               else "first working GPU, else CPU")
+               else "first working GPU, else newest PoCL's CPU, else CPU")
         print(f"default: {chosen or 'none'} ({src})")
     if chosen is None:
         print(f"clbrdf devices: error: {why}", file=sys.stderr)

@@ -1,13 +1,16 @@
 """OpenCL device selection.
 
 The device is chosen, in this order, by the ``device=`` argument of the Python API or the CLI's
-``--device``, the environment variable ``CLBRDF_DEVICE``, or else the first GPU, else the first
-CPU of any platform. A selector is ``P:D`` (platform and device indices as ``clbrdf devices``
+``--device``, the environment variable ``CLBRDF_DEVICE``, or else the first GPU, else the CPU of
+the newest PoCL, else the first CPU. Two PoCLs side by side are common: PyPI's (3.0-rc2, LLVM 14,
+from ``pyopencl[pocl]``) and Debian's (3.1, LLVM 15); on a 2-core Xeon Debian's ran the GGX brdf
+estimator 2.0x faster per CPU-second (benchmarks/RESULTS.md, bench_albedo's ``clbrdf@`` row). A selector is ``P:D`` (platform and device indices as ``clbrdf devices``
 lists them) or a case-insensitive substring of the device or platform name (``pocl``, ``nvidia``).
 """
 from __future__ import annotations
 
 import os
+import re
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -93,6 +96,24 @@ def compiler_error(key: tuple[int, int]) -> str | None:
     return "no such device"
 
 
+def pocl_version(info: DeviceInfo) -> tuple[int, ...] | None:
+    """(major, minor, patch, final) from a PoCL platform's version text ('PoCL 3.1+debian',
+    'PoCL 3.0-rc2': final is 0 for a release candidate); None for other platforms."""
+    m = re.search(r"PoCL (\d+)\.(\d+)(?:\.(\d+))?(-rc)?", info.platform)
+    if m is None:
+        return None
+    return int(m[1]), int(m[2]), int(m[3] or 0), 0 if m[4] else 1
+
+
+def default_order(infos: list[DeviceInfo]) -> list[DeviceInfo]:
+    """The order in which the default device is looked for: GPUs as enumerated, then PoCL CPUs
+    from the newest PoCL, then the other CPUs as enumerated."""
+    gpus = [i for i in infos if i.is_gpu]
+    cpus = [i for i in infos if not i.is_gpu]
+    pocl = sorted((i for i in cpus if pocl_version(i) is not None), key=pocl_version, reverse=True)
+    return gpus + pocl + [i for i in cpus if pocl_version(i) is None]
+
+
 def _pick(selector: str | None):
     devs = _all_devices()
     if not devs:
@@ -100,15 +121,14 @@ def _pick(selector: str | None):
     if selector is None or selector == "":
         selector = os.environ.get("CLBRDF_DEVICE") or None
     if selector is None:
-        # the first GPU, else the first CPU, whose compiler works
+        # the first device in default_order whose compiler works
         errors = []
-        for want_gpu in (True, False):
-            for info, d in devs:
-                if info.is_gpu == want_gpu:
-                    err = compiler_error((info.platform_index, info.device_index))
-                    if err is None:
-                        return info, d
-                    errors.append(f"{info.selector} {info.name} [{info.platform}]: {err}")
+        by_info = dict(devs)
+        for info in default_order([i for i, _ in devs]):
+            err = compiler_error((info.platform_index, info.device_index))
+            if err is None:
+                return info, by_info[info]
+            errors.append(f"{info.selector} {info.name} [{info.platform}]: {err}")
         raise DeviceError(NO_DEVICE_HELP + " Devices tried: " + "; ".join(errors))
     sel = str(selector).strip()
     if ":" in sel and all(part.isdigit() for part in sel.split(":", 1)):

@@ -134,6 +134,30 @@ def test_selector_of_a_broken_device_says_so():
         clbrdf.get_device(d.selector)
 
 
+def test_default_device_prefers_the_newest_pocl():
+    """Among CPUs the default is the newest PoCL's (Debian's 3.1 ran GGX at twice PyPI's 3.0-rc2
+    rate on one Xeon): release above its candidates, GPUs first, other CPUs last; and on this
+    machine the chosen default is the newest working PoCL present."""
+    from clbrdf.device import DeviceInfo, compiler_error, default_order, list_devices, pocl_version
+
+    def info(pi, platform, gpu=False):
+        return DeviceInfo(pi, 0, f"dev{pi}", platform, gpu, True, 2)
+    old = info(0, "Portable Computing Language (OpenCL 3.0 PoCL 3.0-rc2  Linux, Release)")
+    new = info(1, "Portable Computing Language (OpenCL 3.0 PoCL 3.1+debian  Linux)")
+    rc = info(2, "Portable Computing Language (OpenCL 3.0 PoCL 3.1-rc1  Linux)")
+    other = info(3, "Intel(R) OpenCL (OpenCL 3.0 LINUX)")
+    gpu = info(4, "NVIDIA CUDA (OpenCL 3.0 CUDA 13.0.88)", gpu=True)
+    assert pocl_version(old) == (3, 0, 0, 0) and pocl_version(new) == (3, 1, 0, 1)
+    assert pocl_version(other) is None
+    assert default_order([other, old, rc, gpu, new]) == [gpu, new, rc, old, other]
+    working = [d for d in list_devices() if not d.is_gpu and pocl_version(d) is not None
+               and compiler_error((d.platform_index, d.device_index)) is None]
+    if any(d.is_gpu for d in list_devices()) or not working:
+        pytest.skip("a GPU is the default here, or no working PoCL")
+    chosen = clbrdf.get_device().info
+    assert pocl_version(chosen) == max(pocl_version(d) for d in working)
+
+
 def test_tables_are_data_and_sources_are_assembled_once():
     """Generated tables reach the kernels as one device buffer per device, not as source text
     (gtr's program was 2 MB of source with its Lambda table pasted in, about 10 ms per eval call
