@@ -103,7 +103,7 @@ inline spec as_eval_h(const Params *p, vec3 wo, vec3 wi, vec3 h, realN kh)
     return f;
 }
 
-inline spec ashikhmin_shirley_eval(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE spec ashikhmin_shirley_eval(const Params *p, vec3 wo, vec3 wi)
 {
     vec3 s = add3(wi, wo);
     return as_eval_h(p, wo, wi, s, (realN)0.5 * sqrt(dot3(s, s)));
@@ -155,7 +155,7 @@ inline realN as_pdf_h(const Params *p, vec3 wo, vec3 wi, vec3 h, realN kh)
     return sel((realN)0, pdf, (wi.z > 0) & (wo.z > 0));
 }
 
-inline realN ashikhmin_shirley_pdf(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE realN ashikhmin_shirley_pdf(const Params *p, vec3 wo, vec3 wi)
 {
     vec3 s = add3(wi, wo);
     return as_pdf_h(p, wo, wi, s, (realN)0.5 * sqrt(dot3(s, s)));
@@ -183,7 +183,7 @@ inline void ashikhmin_shirley_lobe_ends(const Params *p, vec3 wo, realN *ends)
     ends[1] = (realN)1;                       /* specular */
 }
 
-inline BSample ashikhmin_shirley_sample(const Params *p, vec3 wo, rand4 u)
+ALWAYS_INLINE BSample ashikhmin_shirley_sample(const Params *p, vec3 wo, rand4 u)
 {
     vec3 h = as_sample_h(p, u.u0, u.u1);
     BSample s;

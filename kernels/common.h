@@ -18,6 +18,11 @@
 #define W 1
 #endif
 
+/* For the functions an estimator calls once per sample (each model's eval, pdf and sample, and
+ * albedo_estimate): LLVM's inliner leaves them as calls once they grow, and then the 16-lane
+ * vectors of a call's arguments and BSample result go through memory (GGX albedo 578 -> 330 M
+ * samples/s when microfacet_sample stopped being inlined; benchmarks/RESULTS.md). */
+#define ALWAYS_INLINE inline __attribute__((always_inline))
 #define CAT_(a, b) a##b
 #define CAT(a, b) CAT_(a, b)
 
@@ -147,6 +152,8 @@ inline vec3 select3(vec3 a, vec3 b, maskN m)
 }
 /* Mirror reflection of w about the unit normal m. */
 inline vec3 reflect3(vec3 w, vec3 m) { return sub3(scale3(m, 2 * dot3(w, m)), w); }
+/* The same about a normal m of any length, times |m|^2: no square root or division. */
+inline vec3 reflect_scaled(vec3 w, vec3 m) { return sub3(scale3(m, 2 * dot3(w, m)), scale3(w, dot3(m, m))); }
 
 inline realN sqr(realN x) { return x * x; }
 

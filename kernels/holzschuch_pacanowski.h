@@ -77,7 +77,7 @@ inline spec hp_eval_h(const Params *p, vec3 wo, vec3 wi, vec3 h, realN ch)
     return f;
 }
 
-inline spec holzschuch_pacanowski_eval(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE spec holzschuch_pacanowski_eval(const Params *p, vec3 wo, vec3 wi)
 {
     return hp_eval_h(p, wo, wi, normalize3(add3(wi, wo)), half_cos(wo, wi));
 }
@@ -107,7 +107,7 @@ inline realN hp_pdf_h(const Params *p, vec3 wo, vec3 wi, vec3 h, realN oh)
     return sel((realN)0, pdf, (wi.z > 0) & (wo.z > 0));
 }
 
-inline realN holzschuch_pacanowski_pdf(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE realN holzschuch_pacanowski_pdf(const Params *p, vec3 wo, vec3 wi)
 {
     return hp_pdf_h(p, wo, wi, normalize3(add3(wi, wo)), half_cos(wo, wi));
 }
@@ -121,7 +121,7 @@ inline void holzschuch_pacanowski_lobe_ends(const Params *p, vec3 wo, realN *end
     ends[1] = (realN)1;                       /* cosine */
 }
 
-inline BSample holzschuch_pacanowski_sample(const Params *p, vec3 wo, rand4 u)
+ALWAYS_INLINE BSample holzschuch_pacanowski_sample(const Params *p, vec3 wo, rand4 u)
 {
     Microfacet m = MICROFACET(p->sigma, p->sigma, p->p, p);
     realN ps;

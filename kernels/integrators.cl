@@ -153,7 +153,7 @@ __kernel void sample_batch(const global real_t *P, Tables TABLES, const global r
 /* ---- directional albedo ---- */
 
 /* One estimate of E(wo) = integral f cos dwi (per channel) from the four numbers u. */
-inline spec albedo_estimate(const Params *p, vec3 wo, rand4 u)
+ALWAYS_INLINE spec albedo_estimate(const Params *p, vec3 wo, rand4 u)
 {
 #if ESTIMATOR == ESTIMATOR_UNIFORM
     vec3 wi = square_to_uniform_hemisphere(u.u0, u.u1);

@@ -71,7 +71,7 @@ inline realN low_mf_diffuse_prob(const Params *p, vec3 wo)
 #endif
 }
 
-inline spec low_microfacet_eval(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE spec low_microfacet_eval(const Params *p, vec3 wo, vec3 wi)
 {
     vec3 H = add3(wi, wo);
     vec3 h = normalize3(H);
@@ -99,7 +99,7 @@ inline realN low_mf_lobe_pdf(const Params *p, vec3 wo, vec3 wi)
     return exp(-p->c * log1p(p->b * x)) * low_h_norm_inv(p->b, p->c) / (4 * oh);
 }
 
-inline realN low_microfacet_pdf(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE realN low_microfacet_pdf(const Params *p, vec3 wo, vec3 wi)
 {
     realN pdf = low_mf_lobe_pdf(p, wo, wi);
 #if LOW_DIFFUSE
@@ -129,7 +129,7 @@ inline void low_microfacet_lobe_ends(const Params *p, vec3 wo, realN *ends)
     ends[1] = (realN)1;                       /* microfacet lobe */
 }
 
-inline BSample low_microfacet_sample(const Params *p, vec3 wo, rand4 u)
+ALWAYS_INLINE BSample low_microfacet_sample(const Params *p, vec3 wo, rand4 u)
 {
     realN x;
     vec3 h = low_sample_h(p->b, p->c, u.u0, u.u1, &x);

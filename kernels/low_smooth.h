@@ -124,7 +124,7 @@ inline LowSmoothMix low_smooth_mix(const Params *p, vec3 wo)
     return m;
 }
 
-inline spec low_smooth_eval(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE spec low_smooth_eval(const Params *p, vec3 wo, vec3 wi)
 {
     realN dp2 = low_dp2(wo, wi);
     realN F = low_fresnel(p->eta, low_cos_d(wo, wi));
@@ -161,7 +161,7 @@ inline realN low_smooth_pdf_mix(const Params *p, LowSmoothMix m, vec3 wo, vec3 w
     return sel((realN)0, pd, (wi.z > 0) & (wo.z > 0));
 }
 
-inline realN low_smooth_pdf(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE realN low_smooth_pdf(const Params *p, vec3 wo, vec3 wi)
 {
     return low_smooth_pdf_mix(p, low_smooth_mix(p, wo), wo, wi);
 }
@@ -177,7 +177,7 @@ inline void low_smooth_lobe_ends(const Params *p, vec3 wo, realN *ends)
     ends[2] = (realN)1;                       /* first lobe */
 }
 
-inline BSample low_smooth_sample(const Params *p, vec3 wo, rand4 u)
+ALWAYS_INLINE BSample low_smooth_sample(const Params *p, vec3 wo, rand4 u)
 {
     LowSmoothMix m = low_smooth_mix(p, wo);
     BSample s;

@@ -4,7 +4,11 @@
  *   D(m)                    density of normals, integral D(m) (m . n) dm = 1
  *   Lambda(w)               Smith auxiliary function, G1(w) = 1 / (1 + Lambda(w))
  *   sample_ndf(u0, u1)      m with density D(m) (m . n)
- *   sample_vndf(w, u0, u1)  m with density G1(w) max(0, w . m) D(m) / (w . n)
+ *   sample_vndf(w, u0, u1)  m with density G1(w) max(0, w . m) D(m) / (w . n), returned up to a
+ *                           positive factor (a reflection needs no unit normal: reflect_scaled)
+ *   LAMBDA_SCALE_FREE       1 where Lambda(k w) = Lambda(w) for k > 0 (a function of tan theta
+ *                           written without |w| = 1), so that it takes an unnormalised direction
+ *   Lambda_parts(w, &d)     optional (HAS_LAMBDA_PARTS 1): t with Lambda = t / d
  * Roughness: alpha_x, alpha_y scale the slopes along x and y (MODELS.md section 1).
  */
 #ifndef CLBRDF_MICROFACET_DISTRIBUTIONS_H
@@ -38,11 +42,20 @@ inline realN ggx_D(Microfacet m, vec3 h)
 }
 
 /* Lambda = (-1 + sqrt(1 + a^2 tan^2))/2, written as t / (2 (z^2 + z sqrt(z^2 + t))) with
- * t = a^2 tan^2 z^2: no cancellation for small t. */
-inline realN ggx_Lambda(Microfacet m, vec3 w)
+ * t = a^2 tan^2 z^2: no cancellation for small t; homogeneous of degree 0 in w. */
+#define ggx_LAMBDA_SCALE_FREE 1
+#define ggx_HAS_LAMBDA_PARTS 1           /* Lambda = t / d, for c / (c + Lambda) in one division */
+inline realN ggx_Lambda_parts(Microfacet m, vec3 w, realN *d)
 {
     realN t = projected_roughness2(m, w), z = fabs(w.z);
-    return t / (2 * (z * z + z * sqrt(z * z + t)));
+    *d = 2 * (z * z + z * sqrt(z * z + t));
+    return t;
+}
+
+inline realN ggx_Lambda(Microfacet m, vec3 w)
+{
+    realN d, t = ggx_Lambda_parts(m, w, &d);
+    return t / d;
 }
 
 /* Slopes of GGX are a bivariate Student-t with 2 degrees of freedom: r^2 = u / (1 - u). */
@@ -54,7 +67,7 @@ inline vec3 ggx_sample_ndf(Microfacet m, realN u0, realN u1)
 }
 
 /* Visible normals by spherical caps (Dupuy & Benyoub 2023): uniform point on the cap of the
- * unit sphere around the stretched direction, unstretched. */
+ * unit sphere around the stretched direction, unstretched (not normalised). */
 inline vec3 ggx_sample_vndf(Microfacet m, vec3 w, realN u0, realN u1)
 {
     vec3 ws = normalize3(v3(w.x * m.ax, w.y * m.ay, w.z));
@@ -62,7 +75,7 @@ inline vec3 ggx_sample_vndf(Microfacet m, vec3 w, realN u0, realN u1)
     realN sin_t = safe_sqrt(1 - z * z);
     realN c, s = sincos_2pi(u0, &c);
     vec3 hs = v3(sin_t * c + ws.x, sin_t * s + ws.y, z + ws.z);
-    return normalize3(v3(hs.x * m.ax, hs.y * m.ay, fmax(hs.z, (realN)0)));
+    return v3(hs.x * m.ax, hs.y * m.ay, fmax(hs.z, (realN)0));
 }
 
 /* ---- Beckmann: Walter et al. 2007 eq 25, anisotropic ----
@@ -78,6 +91,7 @@ inline realN beckmann_D(Microfacet m, vec3 h)
 
 /* Lambda = (erf(a) - 1)/2 + exp(-a^2) / (2 a sqrt(pi)), a = 1 / (alpha tan theta) (Walter 2007
  * eq 27 with Smith), written with erfc to avoid 1 - erf(a) cancellation. */
+#define beckmann_LAMBDA_SCALE_FREE 1
 inline realN beckmann_Lambda(Microfacet m, vec3 w)
 {
     realN a = fabs(w.z) * rsqrt(projected_roughness2(m, w));   /* inf at normal incidence */
@@ -139,7 +153,7 @@ inline vec3 beckmann_sample_vndf(Microfacet m, vec3 w, realN u0, realN u1)
     realN rxy = sqrt(ws.x * ws.x + ws.y * ws.y);
     realN cp = sel(ws.x / rxy, (realN)1, rxy == 0), sp = sel(ws.y / rxy, (realN)0, rxy == 0);
     realN tx = cp * sx - sp * sy, ty = sp * sx + cp * sy;
-    return slope_to_normal(m.ax * tx, m.ay * ty);
+    return v3(-m.ax * tx, -m.ay * ty, (realN)1);          /* the normal of the slope, unnormalised */
 }
 
 #endif

@@ -144,7 +144,7 @@ inline spec sch_eval_h(const Params *p, vec3 wo, vec3 wi, vec3 h, realN u)
     return f;
 }
 
-inline spec schlick_eval(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE spec schlick_eval(const Params *p, vec3 wo, vec3 wi)
 {
     return sch_eval_h(p, wo, wi, normalize3(add3(wi, wo)), half_cos(wo, wi));
 }
@@ -220,7 +220,7 @@ inline realN sch_pdf_h(const Params *p, vec3 wo, vec3 wi, vec3 h, realN u)
     return sel((realN)0, pdf, (wi.z > 0) & (wo.z > 0));
 }
 
-inline realN schlick_pdf(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE realN schlick_pdf(const Params *p, vec3 wo, vec3 wi)
 {
     return sch_pdf_h(p, wo, wi, normalize3(add3(wi, wo)), half_cos(wo, wi));
 }
@@ -293,7 +293,7 @@ inline void schlick_lobe_ends(const Params *p, vec3 wo, realN *ends)
     ends[schlick_LOBES - 1] = (realN)1;
 }
 
-inline BSample schlick_sample(const Params *p, vec3 wo, rand4 u)
+ALWAYS_INLINE BSample schlick_sample(const Params *p, vec3 wo, rand4 u)
 {
 #if SCH_DOUBLE
     /* u2 picks the layer, then, rescaled to [0, 1), the lobe within it */

@@ -79,7 +79,7 @@ inline spec sgdb_eval_h(const Params *P, vec3 wo, vec3 wi, vec3 h, realN c)
     return f;
 }
 
-inline spec sgd_bagher_eval(const Params *P, vec3 wo, vec3 wi)
+ALWAYS_INLINE spec sgd_bagher_eval(const Params *P, vec3 wo, vec3 wi)
 {
     return sgdb_eval_h(P, wo, wi, normalize3(add3(wi, wo)), half_cos(wo, wi));
 }
@@ -114,7 +114,7 @@ inline realN sgdb_pdf_h(const Params *P, vec3 wo, vec3 wi, vec3 h, realN c, cons
     return sel((realN)0, pdf, (wi.z > 0) & (wo.z > 0));
 }
 
-inline realN sgd_bagher_pdf(const Params *P, vec3 wo, vec3 wi)
+ALWAYS_INLINE realN sgd_bagher_pdf(const Params *P, vec3 wo, vec3 wi)
 {
     realN inv_kap[CHANNELS];
     for (int ch = 0; ch < CHANNELS; ++ch)
@@ -139,7 +139,7 @@ inline void sgd_bagher_lobe_ends(const Params *P, vec3 wo, realN *ends)
     ends[2 * CHANNELS - 1] = (realN)1;
 }
 
-inline BSample sgd_bagher_sample(const Params *P, vec3 wo, rand4 u)
+ALWAYS_INLINE BSample sgd_bagher_sample(const Params *P, vec3 wo, rand4 u)
 {
     realN inv_kap[CHANNELS], wd[CHANNELS], ws[CHANNELS];
     for (int ch = 0; ch < CHANNELS; ++ch)

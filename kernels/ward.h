@@ -50,7 +50,7 @@ inline realN ward_diffuse_prob(const Params *p)
 #endif
 }
 
-inline spec ward_eval(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE spec ward_eval(const Params *p, vec3 wo, vec3 wi)
 {
     vec3 s = add3(wi, wo);
     realN lobe = exp(-ward_exponent(p, s))
@@ -67,7 +67,7 @@ inline spec ward_eval(const Params *p, vec3 wo, vec3 wi)
     return f;
 }
 
-inline realN ward_pdf(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE realN ward_pdf(const Params *p, vec3 wo, vec3 wi)
 {
     realN pdf = ward_lobe_pdf(p, add3(wi, wo), half_cos(wo, wi));
 #if WARD_DIFFUSE
@@ -86,7 +86,7 @@ inline void ward_lobe_ends(const Params *p, vec3 wo, realN *ends)
     ends[1] = (realN)1;                       /* Gaussian lobe */
 }
 
-inline BSample ward_sample(const Params *p, vec3 wo, rand4 u)
+ALWAYS_INLINE BSample ward_sample(const Params *p, vec3 wo, rand4 u)
 {
     realN c, sn = sincos_2pi(u.u0, &c);
     realN r = sqrt(-log1p(-u.u1));
