@@ -200,6 +200,30 @@ class ClbrdfRow(Row):
         return r.albedo, r.stderr
 
 
+class QuadratureRow(ClbrdfRow):
+    """estimator='quadrature' at tol: deterministic, so its rate is in points per second."""
+    unit = "points"
+
+    def __init__(self, mus, alpha, tol, device=None):
+        super().__init__(mus, 1, alpha, "clbrdf-quadrature", f"clbrdf quadrature, single, tol {tol:g}",
+                         estimator="quadrature", device=device)
+        self.tol, self.same_estimator = tol, False
+
+    def prepare(self):
+        import clbrdf
+        self.clbrdf = clbrdf
+        self.model = clbrdf.Model("ggx", alpha=self.alpha, device=self.device)
+        t = time.perf_counter()
+        self.model.program(part="quadrature")
+        self.compile_s = time.perf_counter() - t
+        self.label += f" (W={self.model.width})"
+
+    def run(self):
+        r = self.clbrdf.albedo(self.model, self.mus, estimator="quadrature", tol=self.tol)
+        self.max_evals = r.samples
+        return r.albedo, r.stderr
+
+
 class NumpyRow(Row):
     """The estimator in plain NumPy, chunked, in-place arithmetic, one process."""
     group = "numpy"
@@ -462,6 +486,8 @@ def build_report(args, rows, info, reference, skipped, load):
              "M samples per CPU-s (median) | CPU-s / wall-s | first call s | compile s |")
     L.append("|---|---|---|---|---|---|---|---|---|")
     for r in rows:
+        if getattr(r, "unit", "samples") != "samples":
+            continue
         rt = r.rates()
         comp = f"{r.compile_s:.2f}" if r.compile_s is not None else "-"
         L.append(f"| **{r.key}**: {r.label} | {fmt_n(len(r.mus), r.samples)} | {median(rt):.1f} | "
@@ -470,6 +496,15 @@ def build_report(args, rows, info, reference, skipped, load):
     for k, why in skipped:
         L.append(f"| **{k}** | skipped: {why} | | | | | | | |")
     L.append("")
+    for r in rows:
+        if getattr(r, "unit", "samples") == "points":
+            rt = r.rates()
+            L.append(f"**{r.key}**: {r.label}: {median(rt) * 1e6:.0f} points/s (median; "
+                     f"{min(rt) * 1e6:.0f} - {max(rt) * 1e6:.0f} over rounds), "
+                     f"{median(r.cpu_rates()) * 1e6:.0f} points per CPU-s, {len(r.mus)} points "
+                     f"in {median(r.times):.3f} s, at most {r.max_evals} integrand evaluations "
+                     f"per point (deterministic: its 'stderr' below is its error estimate).")
+            L.append("")
 
     def ratio(a, b):
         ra, rb = a.rates(), b.rates()
@@ -489,7 +524,7 @@ def build_report(args, rows, info, reference, skipped, load):
     L.append("Ratios (median throughput / median throughput; range of the per-round ratios):")
     L.append("")
     for k in ("numpy-f32", "numpy-f32-small", "numpy-f64", "mitsuba", "clbrdf-w1", "clbrdf-f64",
-              "clbrdf-qmc", "clbrdf-uniform"):
+              "clbrdf-qmc", "clbrdf-uniform", "clbrdf-cosine", "clbrdf-mis", "clbrdf-mis-qmc"):
         if k in by:
             q, lo, hi = ratio(base, by[k])
             qc = median(base.cpu_rates()) / median(by[k].cpu_rates())
@@ -527,7 +562,7 @@ def build_report(args, rows, info, reference, skipped, load):
                   f"{ncu * median(base.cpu_rates()):.0f} M samples/s (an estimate, not a measurement).")
     L.append("")
     L.append("Agreement of the warm-up estimates (z = difference / combined stderr per mu; the clbrdf "
-             "rows use distinct seeds (0-7), NumPy PCG64 seed 12345, Mitsuba's independent sampler seeds 7000 + first point of each launch, so the estimates are "
+             "rows use distinct seeds (0-10), NumPy PCG64 seed 12345, Mitsuba's independent sampler seeds 7000 + first point of each launch, so the estimates are "
              "independent; for equal estimators max |z| over the mu is typically below ~3.5 and mean "
              "z^2 near 1; the qmc row's stderr is the spread of 16 scrambles, the uniform row is "
              "another estimator of the same integral):")
@@ -641,6 +676,13 @@ def main(argv=None):
                   device=args.device, seed=3),
         ClbrdfRow(mus, 1 << args.log2_width1, A, "clbrdf-w1", "clbrdf brdf, single, width 1", width=1,
                   device=args.device, seed=4),
+        ClbrdfRow(mus, S, A, "clbrdf-cosine", "clbrdf cosine hemisphere, single", estimator="cosine",
+                  device=args.device, seed=8),
+        ClbrdfRow(mus, S, A, "clbrdf-mis", "clbrdf mis (brdf + cosine, balance), single",
+                  estimator="mis", device=args.device, seed=9),
+        ClbrdfRow(mus, S, A, "clbrdf-mis-qmc", "clbrdf mis, single, qmc (Sobol, 16 scrambles)",
+                  estimator="mis", qmc=True, device=args.device, seed=10),
+        QuadratureRow(mus, A, 1e-6, device=args.device),
         ClbrdfRow(mus, 1 << args.log2_double, A, "clbrdf-beckmann-vndf",
                   "clbrdf Beckmann brdf (visible normals), single", device=args.device, seed=5,
                   model="beckmann", sampler="vndf"),
