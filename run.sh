@@ -63,7 +63,7 @@ if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$WANT" ]; then
 fi
 
 # 4. a working OpenCL device. Debian's PoCL (3.1, LLVM 15) is installed as root even where PyPI's
-# (3.0-rc2, LLVM 14) works: on a Xeon it ran GGX albedo twice as fast (benchmarks/RESULTS.md).
+# (3.0-rc2, LLVM 14) works: on a Xeon it ran GGX albedo 1.2x as fast (benchmarks/RESULTS.md).
 probe() { "$VENV/bin/python" -c 'import clbrdf; clbrdf.get_device()' 2>&1; }
 if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1 \
         && ! dpkg -s pocl-opencl-icd >/dev/null 2>&1; then

@@ -4,9 +4,10 @@ The device is chosen, in this order, by the ``device=`` argument of the Python A
 ``--device``, the environment variable ``CLBRDF_DEVICE``, or else the first GPU, else the CPU of
 the newest PoCL, else the first CPU. Two PoCLs side by side are common: PyPI's (3.0-rc2, LLVM 14,
 from ``pyopencl[pocl]``) and Debian's (3.1, LLVM 15); on a 2-core Xeon Debian's ran the GGX brdf
-estimator 1.3x faster per CPU-second, and 2.0x before the kernels forced inlining
-(benchmarks/RESULTS.md, bench_albedo's ``clbrdf@`` row). A selector is ``P:D`` (platform and device indices as ``clbrdf devices``
-lists them) or a case-insensitive substring of the device or platform name (``pocl``, ``nvidia``).
+estimator 1.2x faster per CPU-second, and 2.0x before the kernels forced inlining
+(benchmarks/RESULTS.md, bench_albedo's ``clbrdf@`` row). A selector is ``P:D`` (platform and
+device indices as ``clbrdf devices`` lists them) or a case-insensitive substring of the device or
+platform name (``pocl``, ``nvidia``).
 """
 from __future__ import annotations
 

@@ -30,8 +30,9 @@ inline realN projected_roughness2(Microfacet m, vec3 w)
     return sqr(w.x * m.ax) + sqr(w.y * m.ay);
 }
 
-/* The unit normal of the slope (sx, sy). */
-inline vec3 slope_to_normal(realN sx, realN sy) { return normalize3(v3(-sx, -sy, (realN)1)); }
+/* The normal of the slope (sx, sy), unnormalised, and the unit normal. */
+inline vec3 slope_normal(realN sx, realN sy) { return v3(-sx, -sy, (realN)1); }
+inline vec3 slope_to_normal(realN sx, realN sy) { return normalize3(slope_normal(sx, sy)); }
 
 /* ---- GGX: Walter et al. 2007 eq 33, anisotropic form of Heitz 2014 eq 85 ----
  * D = 1 / (pi ax ay (x^2/ax^2 + y^2/ay^2 + z^2)^2), which needs no division by cos theta. */
@@ -153,7 +154,7 @@ inline vec3 beckmann_sample_vndf(Microfacet m, vec3 w, realN u0, realN u1)
     realN rxy = sqrt(ws.x * ws.x + ws.y * ws.y);
     realN cp = sel(ws.x / rxy, (realN)1, rxy == 0), sp = sel(ws.y / rxy, (realN)0, rxy == 0);
     realN tx = cp * sx - sp * sy, ty = sp * sx + cp * sy;
-    return v3(-m.ax * tx, -m.ay * ty, (realN)1);          /* the normal of the slope, unnormalised */
+    return slope_normal(m.ax * tx, m.ay * ty);
 }
 
 #endif

@@ -135,8 +135,8 @@ def test_selector_of_a_broken_device_says_so():
 
 
 def test_default_device_prefers_the_newest_pocl():
-    """Among CPUs the default is the newest PoCL's (Debian's 3.1 ran GGX at twice PyPI's 3.0-rc2
-    rate on one Xeon): release above its candidates, GPUs first, other CPUs last; and on this
+    """Among CPUs the default is the newest PoCL's (Debian's 3.1 ran GGX 1.2x faster than PyPI's
+    3.0-rc2 on one Xeon): release above its candidates, GPUs first, other CPUs last; and on this
     machine the chosen default is the newest working PoCL present."""
     from clbrdf.device import DeviceInfo, compiler_error, default_order, list_devices, pocl_version
 
