@@ -173,13 +173,17 @@ class _Reducer:
 
 
 def run_albedo(m, shape, wo_rows, *, estimator: str, samples: int, seed: int, qmc: bool,
-               progress: bool):
+               progress: bool, point0: int = 0):
     """E and its standard error at every point of ``shape`` (model parameters broadcast with the
     outgoing directions ``wo_rows`` = [x, y, z]). Returns (E, stderr) of shape (points, channels),
-    the plan and the seconds spent."""
+    the plan and the seconds spent. The random numbers of flat point i are keyed by (seed,
+    point0 + i): a caller that computes part of a larger set passes the part's first index."""
     import pyopencl as cl
     plan = AlbedoPlan(samples, qmc, m.width)
     npts = math.prod(shape)
+    if not (0 <= point0 and point0 + npts <= 2**32):
+        raise ParameterError(f"point0={point0} with {npts} points: the generator keys points by "
+                             f"32-bit indices (point0 + points <= 2^32)")
     nch = m.channels
     prog = m.program(part="albedo", estimator=estimator, rng="sobol" if qmc else "philox")
     kern = kernel(prog.program, "albedo_qmc" if qmc else "albedo_blocks")
@@ -214,7 +218,7 @@ def run_albedo(m, shape, wo_rows, *, estimator: str, samples: int, seed: int, qm
         out = np.empty(k * nb * nch * 3 * L, dtype=m.dtype)
         bo = cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes)
         tl = time.perf_counter()
-        kern(q, *ndrange_with(k * nb, local), bp, prog.tables, bw, np.uint64(k), np.uint64(point),
+        kern(q, *ndrange_with(k * nb, local), bp, prog.tables, bw, np.uint64(k), np.uint64(point0 + point),
              np.uint32(block), np.uint32(nb), np.uint32(plan.per_stream), lo, hi,
              np.uint32(plan.bps), np.uint32(plan.block_len), bo)
         cl.enqueue_copy(q, out, bo)
