@@ -441,7 +441,7 @@ def cmd_sweep(args) -> int:
         kw = dict(parse_params(spec, args.param), axes=args.axis, random=args.random,
                   directions=args.directions, samples=args.samples, max_samples=args.max_samples,
                   target_stderr=args.target_stderr, estimator=args.estimator, qmc=args.qmc,
-                  alpha=args.alpha, seed=args.seed, precision=args.precision, width=args.width,
+                  error_rate=args.error_rate, seed=args.seed, precision=args.precision, width=args.width,
                   chunk=args.chunk, preset=args.preset)
     elif not args.resume:
         raise ParameterError("MODEL is required (it may be left out only with --resume)")
@@ -501,7 +501,7 @@ def _sweep_text(s, summ, seconds=None) -> str:
     job = s.job
     lines = [f"{job['model']}{' ' + job['preset'] if job['preset'] else ''}: {summ['computed']} "
              f"of {summ['points']} points: {summ['gains']} gain energy, {summ['conserves']} "
-             f"conserve, {summ['undecided']} undecided (error rate {job['alpha']:g} per point, "
+             f"conserve, {summ['undecided']} undecided (error rate {job['error_rate']:g} per point, "
              f"{len(job['directions']['mu'])} directions each)"]
     w = summ["worst"]
     if w:
@@ -767,7 +767,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", "-o", required=True, metavar="FILE", help="output .npz or .csv")
     p.set_defaults(func=cmd_table)
 
-    from .sweep import ALPHA, ESTIMATORS as SWEEP_ESTIMATORS, MAX_GROWTH
+    from .sweep import ERROR_RATE, ESTIMATORS as SWEEP_ESTIMATORS, MAX_GROWTH
     p = sub.add_parser("sweep", help="energy-conservation sweep over many parameter points, "
                        "to a resumable zarr store",
                        description="At every point (a grid over the axes, or --random N "
@@ -800,8 +800,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--estimator", choices=SWEEP_ESTIMATORS, default="brdf",
                    help="Monte Carlo estimator (default brdf)")
     p.add_argument("--qmc", action="store_true", help="Owen-scrambled Sobol points (16 scrambles)")
-    p.add_argument("--alpha", type=float, default=ALPHA, metavar="A",
-                   help=f"error rate of a point's verdict (default {ALPHA:g})")
+    p.add_argument("--error-rate", type=float, default=ERROR_RATE, metavar="E",
+                   help=f"probability that a point's verdict is wrong, at most (default "
+                        f"{ERROR_RATE:g})")
     p.add_argument("--seed", type=int, default=0, metavar="S", help="random seed (default 0)")
     p.add_argument("--precision", choices=PRECISIONS, default="single", help="default single")
     p.add_argument("--width", type=int, choices=(1, 2, 4, 8, 16), default=None,

@@ -11,10 +11,14 @@ be pickled, and a context made before a fork breaks the child. A worker killed m
 only that chunk, which the scheduler runs again elsewhere; random numbers are keyed by position
 (clbrdf.sweep), so the store is bit-identical to a local run on the same device kind and width.
 
-PoCL reads its thread count (``POCL_CPU_MAX_CU_COUNT``) when the library loads, so it must be in
-a worker's environment before the worker process starts: ``local_cluster`` puts it in
-``distributed.nanny.pre-spawn-environ``; for workers you start yourself use
-``POCL_CPU_MAX_CU_COUNT=T dask worker ADDRESS --nthreads 1`` (T cores per worker).
+PoCL reads its thread count when the library loads, so it must be in a worker's environment
+before the worker process starts: ``local_cluster`` puts it in
+``distributed.nanny.pre-spawn-environ``. The variable is ``POCL_CPU_MAX_CU_COUNT`` from PoCL 4
+on and ``POCL_MAX_PTHREAD_COUNT`` before: PoCL 3.0 and 3.1 (PyPI's and Debian's here) report 2
+compute units on 2 cores with ``POCL_CPU_MAX_CU_COUNT=1`` and 1 with ``POCL_MAX_PTHREAD_COUNT=1``
+(tests/test_sweep_cluster.py), so both are set (``POCL_THREAD_VARIABLES``). For workers you
+start yourself: ``POCL_CPU_MAX_CU_COUNT=T POCL_MAX_PTHREAD_COUNT=T dask worker ADDRESS
+--nthreads 1`` (T cores per worker).
 """
 from __future__ import annotations
 
@@ -28,6 +32,7 @@ import dask
 from distributed import Client, LocalCluster, WorkerPlugin, as_completed, get_worker
 
 _STATE: dict = {}
+POCL_THREAD_VARIABLES = ("POCL_CPU_MAX_CU_COUNT", "POCL_MAX_PTHREAD_COUNT")
 
 
 class DevicePlugin(WorkerPlugin):
@@ -61,7 +66,7 @@ def _chunk_task(job: dict, index: int, selector):
         worker = None
     return index, arrays, {"seconds": time.perf_counter() - t0, **device_fingerprint(dev),
                            "host": platform.node(), "worker": worker,
-                           "POCL_CPU_MAX_CU_COUNT": os.environ.get("POCL_CPU_MAX_CU_COUNT")}
+                           **{k: os.environ.get(k) for k in POCL_THREAD_VARIABLES}}
 
 
 def _width(selector, precision):
@@ -122,8 +127,8 @@ def run_on_cluster(client: Client, root, path, job: dict, todo: list, stop, bar,
 def local_cluster(n_workers: int = 2, threads_per_worker: int = 1, **kw) -> LocalCluster:
     """A LocalCluster of worker processes whose PoCL uses ``threads_per_worker`` cores each
     (set before the workers spawn, and for workers the nanny restarts later)."""
-    dask.config.set({"distributed.nanny.pre-spawn-environ.POCL_CPU_MAX_CU_COUNT":
-                     str(threads_per_worker)})
+    dask.config.set({f"distributed.nanny.pre-spawn-environ.{k}": str(threads_per_worker)
+                     for k in POCL_THREAD_VARIABLES})
     kw.setdefault("dashboard_address", None)
     return LocalCluster(n_workers=n_workers, threads_per_worker=threads_per_worker,
                         processes=True, **kw)

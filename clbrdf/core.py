@@ -385,7 +385,7 @@ def _runtime_environment() -> dict:
     """Environment variables that change a result's bits or the device used."""
     import os
     keys = ("CLBRDF_DEVICE", "CLBRDF_WIDTH", "CLBRDF_BUILD_OPTIONS", "POCL_CPU_MAX_CU_COUNT",
-            "POCL_DEVICES", "POCL_AFFINITY", "OCL_ICD_VENDORS", "OCL_ICD_FILENAMES")
+            "POCL_MAX_PTHREAD_COUNT", "POCL_DEVICES", "POCL_AFFINITY", "OCL_ICD_VENDORS", "OCL_ICD_FILENAMES")
     return {k: os.environ[k] for k in keys if k in os.environ}
 
 

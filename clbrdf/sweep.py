@@ -14,12 +14,12 @@ it occurs and E_avg (the quadrature over the directions), each with its standard
 Decision rule (``decide``): with K = D x channels estimates per point and at most R looks (the
 first estimate and up to R - 1 refinements, each quadrupling a direction's samples, up to
 ``max_samples``), every estimate gets the interval E +- z s with z the normal quantile of
-1 - alpha / (R K) (Student's t with 15 degrees of freedom for quasi-Monte Carlo, whose error
+1 - e / (R K), e = ``error_rate`` (Student's t with 15 degrees of freedom for quasi-Monte Carlo, whose error
 comes from 16 scrambles). A point *gains* energy when some lower bound exceeds 1, *conserves*
 when every upper bound is at most 1, and is *undecided* otherwise. Between looks only the
 estimates of undecided points whose interval contains 1 get more samples (and, with
 ``target_stderr``, any estimate whose standard error exceeds it). By the union bound over the K
-estimates and R looks, a point's verdict is wrong with probability at most alpha, to the extent
+estimates and R looks, a point's verdict is wrong with probability at most e, to the extent
 that each estimate is normal (t) with its standard error. The verdict is about the D directions
 computed: max E over all directions can only be larger.
 
@@ -59,7 +59,7 @@ from .spec import ParameterError
 FORMAT = 1
 NOT_DONE, UNDECIDED, CONSERVES, GAINS = -1, 0, 1, 2
 VERDICTS = {UNDECIDED: "undecided", CONSERVES: "conserves", GAINS: "gains"}
-ALPHA = 1e-3              # default error rate of a point's verdict
+ERROR_RATE = 1e-3         # default probability that a point's verdict is wrong
 GROWTH = 4                # each refinement multiplies a direction's samples by this
 MAX_GROWTH = 64           # default max_samples = MAX_GROWTH x samples (3 refinements)
 CHUNK_PAIRS = 1 << 17     # default chunk: about this many (point, direction) pairs
@@ -265,7 +265,7 @@ def _probe_params(axes, spec) -> dict:
 
 def make_job(model: str, *, axes=None, random=None, directions=None, samples: int = 4096,
              max_samples=None, target_stderr=None, estimator: str = "brdf", qmc: bool = False,
-             alpha: float = ALPHA, seed: int = 0, precision: str = "single", width=None,
+             error_rate: float = ERROR_RATE, seed: int = 0, precision: str = "single", width=None,
              chunk=None, preset=None, device=None, **fixed) -> dict:
     """Validate every argument (nothing is computed) and return the job: a JSON-able dict."""
     from .core import PRECISIONS, _check_choice
@@ -298,9 +298,10 @@ def make_job(model: str, *, axes=None, random=None, directions=None, samples: in
         if isinstance(target_stderr, bool) or not 0 < float(target_stderr) < 1:
             raise ParameterError(f"target_stderr={target_stderr!r} is out of range: valid is (0, 1)")
         target_stderr = float(target_stderr)
-    if isinstance(alpha, bool) or not 0 < float(alpha) < 0.5:
-        raise ParameterError(f"alpha={alpha!r} is out of range: valid alpha (the error rate of a "
-                             f"point's verdict) is in (0, 0.5)")
+    if isinstance(error_rate, bool) or not isinstance(error_rate, (int, float)) or \
+            not 0 < float(error_rate) < 0.5:
+        raise ParameterError(f"error_rate={error_rate!r} is out of range: valid error_rate (the "
+                             f"probability that a point's verdict is wrong) is in (0, 0.5)")
     runtime.seed_words(seed)
     # the configuration at a few points of the box checks the fixed parameters and axes together
     channels = fixed.pop("channels", None)
@@ -312,6 +313,7 @@ def make_job(model: str, *, axes=None, random=None, directions=None, samples: in
         channels = 3 if channels is None else channels
     channels = channels or 1
     probe = _probe_params(axes, spec)
+    params = {k: v for k, v in params.items() if k not in probe}      # axes override a preset
     grid = [g.reshape(-1) for g in np.meshgrid(*probe.values(), indexing="ij")] if probe else []
     spectral_axes = [k for k in probe if spec.param(k).spectral and channels > 1]
     cfg, values = spec.configure(channels=channels, **params, **{
@@ -346,7 +348,7 @@ def make_job(model: str, *, axes=None, random=None, directions=None, samples: in
     return {"format": FORMAT, "model": spec.name, "preset": preset, "fixed": fixed_json,
             "axes": axes, "random": random, "points": int(npoints), "directions": directions,
             "estimator": estimator, "qmc": bool(qmc), "samples": samples,
-            "max_samples": max_samples, "target_stderr": target_stderr, "alpha": float(alpha),
+            "max_samples": max_samples, "target_stderr": target_stderr, "error_rate": float(error_rate),
             "seed": int(seed), "precision": precision, "width": int(width), "chunk": int(chunk),
             "channels": channels, "spectral_axes": spectral_axes}
 
@@ -355,7 +357,7 @@ def make_job(model: str, *, axes=None, random=None, directions=None, samples: in
 ARGUMENTS = {"model": "MODEL", "preset": "--preset", "fixed": "--param", "axes": "--axis",
              "random": "--random", "directions": "--directions", "estimator": "--estimator",
              "qmc": "--qmc", "samples": "--samples", "max_samples": "--max-samples",
-             "target_stderr": "--target-stderr", "alpha": "--alpha", "seed": "--seed",
+             "target_stderr": "--target-stderr", "error_rate": "--error-rate", "seed": "--seed",
              "precision": "--precision", "width": "--width", "chunk": "--chunk"}
 
 
@@ -439,7 +441,7 @@ def z_value(job: dict) -> float:
     """The interval half-width in standard errors (module docstring)."""
     from scipy import stats
     K = len(job["directions"]["mu"]) * job["channels"]
-    p = job["alpha"] / (looks(job) * K)
+    p = job["error_rate"] / (looks(job) * K)
     return float(stats.t.isf(p, runtime.QMC_STREAMS - 1) if job["qmc"] else stats.norm.isf(p))
 
 
@@ -568,11 +570,11 @@ def rule_text(job: dict) -> str:
     K = len(job["directions"]["mu"]) * job["channels"]
     dist = "Student t, 15 dof (16 scrambles)" if job["qmc"] else "normal"
     return (f"E +- (z s + {ROUND_ULPS} ulps of max(|E|, 1)) per estimate, z = {z_value(job):.4f} "
-            f"({dist} quantile of 1 - alpha / (R K), "
-            f"alpha = {job['alpha']:g}, R = {looks(job)} looks, K = {K} estimates per point); "
+            f"({dist} quantile of 1 - e / (R K), "
+            f"error rate e = {job['error_rate']:g}, R = {looks(job)} looks, K = {K} estimates per point); "
             f"gains: some lower bound > 1; conserves: every upper bound <= 1; else undecided. "
             f"Undecided estimates whose interval contains 1 get {GROWTH}x the samples per look, up "
-            f"to {job['max_samples']}. P(wrong verdict) <= alpha per point.")
+            f"to {job['max_samples']}. P(wrong verdict) <= e per point.")
 
 
 def _create(path: Path, job: dict, manifest: dict) -> None:
@@ -706,7 +708,7 @@ def sweep(model: str | None = None, out=None, *, resume: bool = False, device=No
     """Run (or, with ``resume=True``, continue) a sweep into the zarr store ``out`` and return it
     opened (``Sweep``). Arguments as ``make_job``: ``axes`` (dict name -> (start, stop, count[,
     spacing]) or values or (start, stop[, spacing]) with ``random=N``), ``directions``,
-    ``samples``, ``max_samples``, ``target_stderr``, ``estimator``, ``qmc``, ``alpha``, ``seed``,
+    ``samples``, ``max_samples``, ``target_stderr``, ``estimator``, ``qmc``, ``error_rate``, ``seed``,
     ``precision``, ``width``, ``chunk``, ``preset`` and fixed parameters and options.
     ``device``: a selector, a Device, or a list of them (chunks are dealt out as devices
     finish); ``client``: a dask.distributed Client whose workers compute the chunks (see
