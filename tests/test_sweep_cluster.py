@@ -1,0 +1,92 @@
+"""Sweeps on a real dask.distributed LocalCluster of two single-threaded worker processes: the
+store equals a local run's bit for bit, also when a worker is killed mid-sweep; PoCL's thread
+count reaches the workers before they start."""
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+pytest.importorskip("distributed")
+
+from clbrdf.cluster import POCL_THREAD_VARIABLES, local_cluster  # noqa: E402
+from clbrdf.sweep import open_sweep, sweep  # noqa: E402
+from distributed import Client  # noqa: E402
+from test_sweep import same_store  # noqa: E402
+
+KW = dict(axes={"alpha": (0.01, 1, 12, "log"), "f0": (0, 1, 4)}, samples=1 << 15, chunk=2,
+          directions="gauss:16")
+
+
+@pytest.fixture(scope="module")
+def client():
+    cluster = local_cluster(2, threads_per_worker=1)
+    c = Client(cluster)
+    yield c
+    c.close()
+    cluster.close()
+
+
+def _compute_units(env):
+    code = ("import clbrdf; d = clbrdf.get_device(); print(d.cl_device.max_compute_units)")
+    r = subprocess.run([sys.executable, "-c", code], env={**os.environ, **env},
+                       capture_output=True, text=True, timeout=120)
+    return int(r.stdout.strip())
+
+
+def test_pocl_thread_variables_limit_compute_units():
+    """Both names are set: POCL_MAX_PTHREAD_COUNT for PoCL < 4 (3.0 and 3.1 ignore
+    POCL_CPU_MAX_CU_COUNT), POCL_CPU_MAX_CU_COUNT from PoCL 4 on."""
+    import clbrdf
+    if clbrdf.get_device().cl_device.max_compute_units < 2:
+        pytest.skip("one compute unit: nothing to limit")
+    assert _compute_units({k: "1" for k in POCL_THREAD_VARIABLES}) == 1
+
+
+def test_workers_get_the_thread_count_before_they_start(client):
+    env = client.run(lambda: {k: os.environ.get(k) for k in POCL_THREAD_VARIABLES})
+    assert len(env) == 2 and all(v == {k: "1" for k in POCL_THREAD_VARIABLES}
+                                 for v in env.values())
+
+
+def test_cluster_sweep_is_bit_identical_to_local(client, tmp_path):
+    local = sweep("ggx", tmp_path / "local.zarr", **KW)
+    dist = sweep("ggx", tmp_path / "dist.zarr", client=client, **KW)
+    same_store(local, dist)
+    import json
+    led = [json.loads(p.read_text()) for p in (tmp_path / "dist.zarr/ledger").glob("*.json")]
+    assert len({e["worker"] for e in led}) == 2        # both workers took chunks
+    assert {e["compute_units"] for e in led} == {1}
+
+
+def test_a_worker_killed_mid_sweep(client, tmp_path):
+    """SIGKILL to one worker process while chunks run: the nanny restarts it, the scheduler
+    reruns its chunk, and the sweep finishes with the local run's store."""
+    local = sweep("ggx", tmp_path / "local.zarr", **KW)
+    out = tmp_path / "dist.zarr"
+    done = {}
+
+    def run():
+        try:
+            done["sweep"] = sweep("ggx", out, client=client, **KW)
+        except BaseException as e:      # noqa: BLE001
+            done["error"] = e
+    t = threading.Thread(target=run)
+    t.start()
+    t0 = time.monotonic()
+    while len(list((out / "ledger").glob("*.json")) if (out / "ledger").exists() else []) < 4:
+        assert time.monotonic() - t0 < 120 and t.is_alive()
+        time.sleep(0.01)
+    pids = client.run(os.getpid)
+    victim = sorted(pids.values())[0]
+    os.kill(victim, signal.SIGKILL)
+    t.join(300)
+    assert "error" not in done, done.get("error")
+    n = len(list((out / "ledger").glob("*.json")))
+    assert n == 24, n
+    same_store(local, open_sweep(out))
+    assert victim not in client.run(os.getpid).values()      # a new worker process
