@@ -647,7 +647,7 @@ def _local_worker(root, path, job, device, todo, lock, stop: _Stop, bar, errors)
             with lock:
                 if not todo:
                     return
-                index = todo.pop(0)
+                index = todo.popleft()
             t0 = time.perf_counter()
             arrays = compute_chunk(job, index, device)
             seconds = time.perf_counter() - t0
@@ -748,8 +748,8 @@ def sweep(model: str | None = None, out=None, *, resume: bool = False, device=No
                        **kw)
     from . import __version__
     from .core import _runtime_environment
-    todo = [i for i in range(n_chunks(job)) if i not in done_chunks(path)] if resume else \
-        list(range(n_chunks(job)))
+    done = done_chunks(path) if resume else set()
+    todo = [i for i in range(n_chunks(job)) if i not in done]
     if not resume:
         import scipy
         import zarr
@@ -781,6 +781,8 @@ def sweep(model: str | None = None, out=None, *, resume: bool = False, device=No
 
 
 def _run_local(root, path, job, devices, todo, stop, bar):
+    from collections import deque
+    todo = deque(todo)
     lock = threading.Lock()
     errors: list = []
     threads = [threading.Thread(target=_local_worker, daemon=True, name=f"clbrdf-sweep-{i}",
