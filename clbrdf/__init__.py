@@ -7,3 +7,4 @@ from .models import MODELS  # noqa: F401
 from . import presets  # noqa: F401
 from .spec import ParameterError  # noqa: F401
 from .check import check  # noqa: F401,E402  (clbrdf.check(model, ...): the property battery)
+from .sweep import open_sweep, sweep  # noqa: F401,E402  (clbrdf.sweep(model, store, ...): energy sweeps)
