@@ -247,5 +247,8 @@ def report(path, out=None) -> dict:
         tmp = out / ".README.md.tmp"
         tmp.write_text(text)
         tmp.replace(out / "README.md")
+        for old in (*out.glob("map_*.png"), *out.glob("max_E_*.png")):   # an earlier report's
+            if old.name not in files:
+                old.unlink()
         summary["files"] = [str(out / "README.md")] + [str(out / f) for f in files]
     return summary

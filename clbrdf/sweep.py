@@ -17,7 +17,8 @@ first estimate and up to R - 1 refinements, each quadrupling a direction's sampl
 1 - e / (R K), e = ``error_rate`` (Student's t with 15 degrees of freedom for quasi-Monte Carlo, whose error
 comes from 16 scrambles). A point *gains* energy when some lower bound exceeds 1, *conserves*
 when every upper bound is at most 1, and is *undecided* otherwise. Between looks only the
-estimates of undecided points whose interval contains 1 get more samples (and, with
+estimates of undecided points whose interval contains 1 and whose |E - 1| exceeds the rounding
+allowance (``rounding``: below it no sample count decides) get more samples (and, with
 ``target_stderr``, any estimate whose standard error exceeds it). By the union bound over the K
 estimates and R looks, a point's verdict is wrong with probability at most e, to the extent
 that each estimate is normal (t) with its standard error. The verdict is about the D directions
@@ -514,7 +515,10 @@ def compute_chunk(job: dict, index: int, device) -> dict:
     for r in range(1, looks(job)):
         lo, hi = bounds(job, E, S, z)
         verdict = decide(lo.reshape(n, D, nch), hi.reshape(n, D, nch))
-        open_ = (verdict == UNDECIDED)[pt] & np.any((lo <= 1) & (hi > 1), axis=1)
+        # more samples can decide an interval around 1 only where |E - 1| exceeds the rounding
+        # allowance (GGX at alpha 1e-4: E = 1 - 1e-9, undecided at any sample count)
+        open_ = (verdict == UNDECIDED)[pt] & np.any(
+            (lo <= 1) & (hi > 1) & (np.abs(E - 1) > rounding(job, E)), axis=1)
         if job["target_stderr"] is not None:
             open_ |= np.any(S > job["target_stderr"], axis=1)
         rows = np.flatnonzero(open_)
@@ -573,8 +577,9 @@ def rule_text(job: dict) -> str:
             f"({dist} quantile of 1 - e / (R K), "
             f"error rate e = {job['error_rate']:g}, R = {looks(job)} looks, K = {K} estimates per point); "
             f"gains: some lower bound > 1; conserves: every upper bound <= 1; else undecided. "
-            f"Undecided estimates whose interval contains 1 get {GROWTH}x the samples per look, up "
-            f"to {job['max_samples']}. P(wrong verdict) <= e per point.")
+            f"Undecided estimates whose interval contains 1, with |E - 1| above the rounding "
+            f"allowance, get {GROWTH}x the samples per look, up to {job['max_samples']}. "
+            f"P(wrong verdict) <= e per point.")
 
 
 def _create(path: Path, job: dict, manifest: dict) -> None:

@@ -20,31 +20,34 @@ from clbrdf.report import report
 from clbrdf.sweep import sweep
 
 # name -> (model, fixed parameters and options, axes as START:STOP[:SPACING] for random points).
-# Shape parameters over their whole valid range; scale parameters (ks, A, rho_s up to 1e6 or
-# 1e8) over 0..1 or a few decades around 1, where the question is not trivial; kd over [0, 1].
+# The lobes alone (kd = 0, F = 1, ks = 1 unless an axis says otherwise): the added Lambertian
+# term kd of the microfacet models adds kd to E, so with it any kd > 1 - E_spec gains (ggx-kd
+# shows it once). Shape parameters over their whole valid range; scale parameters (A of Löw's
+# ABC lobes, up to 1e8) over a few decades around 1, where the question is not trivial.
 MODEL_SWEEPS = {
     "lambert": ("lambert", {}, ["kd=0:1"]),
-    "ggx": ("ggx", {}, ["alpha=1e-4:10:log", "kd=0:1"]),
-    "ggx-separable": ("ggx", {"masking": "separable"}, ["alpha=1e-4:10:log", "kd=0:1"]),
-    "ggx-vcavity": ("ggx", {"masking": "vcavity"}, ["alpha=1e-4:10:log", "kd=0:1"]),
-    "ggx-no-masking": ("ggx", {"masking": "none"}, ["alpha=1e-4:10:log", "kd=0:1"]),
-    "ggx-schlick": ("ggx", {"fresnel": "schlick"}, ["alpha=1e-4:10:log", "f0=0:1", "kd=0:1"]),
-    "beckmann": ("beckmann", {}, ["alpha=1e-4:10:log", "kd=0:1"]),
-    "exppow": ("exppow", {}, ["alpha=1e-4:10:log", "p=0.1:5", "kd=0:1"]),
-    "gtr": ("gtr", {}, ["alpha=0.001:0.999:log", "gamma=0.5:4", "kd=0:1"]),
-    "sgd": ("sgd", {}, ["alpha=1e-5:1:log", "p=0:2", "kd=0:1"]),
+    "ggx": ("ggx", {}, ["alpha=1e-4:10:log"]),
+    "ggx-separable": ("ggx", {"masking": "separable"}, ["alpha=1e-4:10:log"]),
+    "ggx-vcavity": ("ggx", {"masking": "vcavity"}, ["alpha=1e-4:10:log"]),
+    "ggx-no-masking": ("ggx", {"masking": "none"}, ["alpha=1e-4:10:log"]),
+    "ggx-schlick": ("ggx", {"fresnel": "schlick"}, ["alpha=1e-4:10:log", "f0=0:1"]),
+    "ggx-kd": ("ggx", {}, ["alpha=1e-4:10:log", "kd=0:1"]),
+    "beckmann": ("beckmann", {}, ["alpha=1e-4:10:log"]),
+    "exppow": ("exppow", {}, ["alpha=1e-4:10:log", "p=0.1:5"]),
+    "gtr": ("gtr", {}, ["alpha=0.001:0.999:log", "gamma=0.5:4"]),
+    "sgd": ("sgd", {}, ["alpha=1e-5:1:log", "p=0:2"]),
     "ashikhmin_shirley": ("ashikhmin_shirley", {}, ["nu=0.01:1e7:log", "nv=0.01:1e7:log",
                                                      "rs=0:1", "rd=0:1"]),
-    "holzschuch_pacanowski": ("holzschuch_pacanowski", {"ks": 1.0},
-                              ["kd=0:1", "f0=0:1.2", "kw=0:1", "a=0.01:100:log",
-                               "sigma=1e-4:10:log", "p=0.1:5"]),
+    "holzschuch_pacanowski": ("holzschuch_pacanowski", {},
+                              ["f0=0:1.2", "kw=0:1", "a=0.01:100:log", "sigma=1e-4:10:log",
+                               "p=0.1:5"]),
     "low_smooth": ("low_smooth", {}, ["a=1e-3:1e3:log", "b=1e-6:1e9:log", "c=0.01:50:log",
-                                      "eta=1.001:1000:log", "kd=0:1"]),
+                                      "eta=1.001:1000:log"]),
     "low_microfacet": ("low_microfacet", {}, ["a=1e-3:1e3:log", "b=1e-6:1e9:log",
-                                              "c=0.01:50:log", "eta=1.001:1000:log", "kd=0:1"]),
-    "sgd_bagher": ("sgd_bagher", {}, ["rho_d=0:1", "rho_s=0:1", "alpha=1e-5:1:log", "p=0:2"]),
+                                              "c=0.01:50:log", "eta=1.001:1000:log"]),
+    "sgd_bagher": ("sgd_bagher", {"rho_d": 0.0}, ["rho_s=0:1", "alpha=1e-5:1:log", "p=0:2"]),
     "schlick": ("schlick", {}, ["c=0:1", "r=1e-7:1:log", "p=1e-6:1:log", "psi=0:3.14159"]),
-    "ward": ("ward", {}, ["alpha_x=0.001:1:log", "alpha_y=0.001:1:log", "ks=0:1", "kd=0:1"]),
+    "ward": ("ward", {}, ["alpha_x=0.001:1:log", "alpha_y=0.001:1:log", "ks=0:1"]),
 }
 
 
