@@ -112,44 +112,6 @@ def parse_list(text: str, name: str) -> np.ndarray:
     return np.array([_number(p, name) for p in parts])
 
 
-SPACINGS = ("lin", "log")
-
-
-def parse_axis(text: str):
-    """``NAME=START:STOP:COUNT[:SPACING]`` -> (name, values, spacing)."""
-    form = "expected NAME=START:STOP:COUNT[:SPACING] with SPACING lin or log (e.g. alpha=0.02:1:32)"
-    name, sep, rest = text.partition("=")
-    name = name.strip()
-    fields = rest.split(":")
-    if not sep or not name or len(fields) not in (3, 4):
-        raise ParameterError(f"axis {text!r} is malformed: {form}")
-    start = _number(fields[0].strip(), f"axis {name} START")
-    stop = _number(fields[1].strip(), f"axis {name} STOP")
-    try:
-        count = int(fields[2].strip())
-    except ValueError:
-        raise ParameterError(f"axis {name} COUNT={fields[2].strip()!r} is not an integer: "
-                             f"valid COUNT is in [1, 100000]") from None
-    if not 1 <= count <= 100000:
-        raise ParameterError(f"axis {name} COUNT={count} is out of range: valid COUNT is in "
-                             f"[1, 100000]")
-    spacing = fields[3].strip() if len(fields) == 4 else "lin"
-    if spacing not in SPACINGS:
-        raise ParameterError(f"axis {name} SPACING={spacing!r} is not valid: choose one of lin, log")
-    if not (math.isfinite(start) and math.isfinite(stop)):
-        raise ParameterError(f"axis {name}={start!r}:{stop!r} is not finite: START and STOP must be "
-                             f"finite numbers")
-    if spacing == "log":
-        if start <= 0 or stop <= 0:
-            bad = start if start <= 0 else stop
-            raise ParameterError(f"axis {name}: log spacing needs START and STOP > 0, got {bad!r}: "
-                                 f"valid START and STOP are in (0, inf)")
-        values = np.geomspace(start, stop, count)
-    else:
-        values = np.linspace(start, stop, count)
-    return name, values, spacing
-
-
 # ---------------------------------------------------------------------------------------------
 # device helpers
 
@@ -397,24 +359,33 @@ def cmd_table(args) -> int:
         tables.check_output(out)
     except ValueError as e:
         raise ParameterError(f"--out {args.out!r}: {e}") from None
+    from .axes import MAPPED, check_form, evaluated, parse_axis
     from .spec import check_mu
-    axes, spacing = {}, {}
+    axes = {}
     for text in args.axis:
-        name, values, sp = parse_axis(text)
+        ax = parse_axis(text)
+        name = ax["name"]
         if name in axes:
             raise ParameterError(f"axis {name} is given twice")
-        if name != "mu":
-            if any(o.name == name for o in spec.options):
+        target = MAPPED[name][0] if name in MAPPED else name
+        if name not in ("mu", "theta", "phi"):
+            if any(o.name == target for o in spec.options):
                 raise ParameterError(f"axis {name}: {name} is an option, not a numeric parameter; "
                                      f"give it as --param {name}=CHOICE")
-            if name in params:
-                raise ParameterError(f"parameter {name} is given both as --axis and --param")
+            if target in params:
+                raise ParameterError(f"parameter {target} is given both as --axis {name} and "
+                                     f"--param")
         try:
-            check_mu(values, args.precision) if name == "mu" else spec.param(name).check(values)
+            ax = check_form(ax)
+            v = evaluated(ax)
+            if target == "mu":
+                check_mu(v, args.precision)
+            elif name != "phi":
+                spec.param(target).check(v)
         except ParameterError as e:
             raise ParameterError(f"--axis {text}: {_clean(e)}") from None
-        axes[name], spacing[name] = values, sp
-    if "mu" not in axes:
+        axes[name] = ax
+    if "mu" not in axes and "theta" not in axes:
         raise ParameterError("a table needs a mu axis: --axis mu=START:STOP:COUNT with mu in [1e-6, 1] (single) or [1e-12, 1] (double)")
     # fail before computing on bad parameters or no device
     _model(spec.name, args, params)
@@ -423,7 +394,7 @@ def cmd_table(args) -> int:
     table = albedo_table(spec.name, axes, samples=args.samples, estimator=args.estimator,
                          seed=args.seed, qmc=args.qmc, precision=args.precision,
                          device=args.device, width=args.width, progress=True, preset=args.preset,
-                         spacing=spacing, command=" ".join(["clbrdf"] + [_quote(a) for a in args.argv]),
+                         command=" ".join(["clbrdf"] + [_quote(a) for a in args.argv]),
                          **_quad_args(args), **params)
     seconds = time.perf_counter() - t0
     written = tables.save_table(table, out)

@@ -354,30 +354,48 @@ def albedo_avg(m: Model, *, nodes: int = GAUSS_NODES, phi_nodes: int | None = No
     return (cw * r.albedo).sum(axis=(0, 1)), np.sqrt(((cw * r.stderr) ** 2).sum(axis=(0, 1)))
 
 
-def _table_axes(spec, axes) -> dict:
-    """Validated axes: a non-empty dict of non-empty 1-D arrays of finite numbers, named mu, phi
-    or a numeric parameter of the model, with a mu axis."""
+def _table_axes(spec, axes, spacing=None) -> list:
+    """Validated axes as axis dicts (clbrdf.axes): from a dict name -> 1-D values, axis text or
+    an axis dict; named mu or theta (exactly one), phi, r (alpha = r^2, for a model with alpha)
+    or a numeric parameter of the model."""
+    from . import axes as ax_mod
     if not isinstance(axes, dict) or not axes:
         raise ParameterError(f"axes={axes!r} is not valid: give a dict of axis name -> 1-D values "
                              f"with at least a mu axis")
-    out = {}
+    pnames = [p.name for p in spec.params]
+    out = []
     for k, v in axes.items():
-        if k not in ("mu", "phi") and not any(p.name == k for p in spec.params):
+        if k not in ("mu", "phi") and k not in ax_mod.MAPPED and k not in pnames:
             opts = [o.name for o in spec.options]
             why = "an option: give it as a fixed argument" if k in opts else "not a parameter"
-            raise ParameterError(f"axis {k!r} of model {spec.name} is {why}; axes are mu, phi and "
-                                 f"the parameters {', '.join(p.name for p in spec.params)}")
-        try:
-            a = np.asarray(v, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ParameterError(f"axis {k}={v!r} is not valid: values must be numbers") from None
-        if a.ndim != 1 or a.size == 0:
-            raise ParameterError(f"axis {k} must be a non-empty 1-D list of numbers, got shape "
-                                 f"{a.shape}")
-        finite_or_raise(f"axis {k}", a)
-        out[k] = a
-    if "mu" not in out:
-        raise ParameterError("a table needs a mu axis (--axis mu=START:STOP:COUNT)")
+            raise ParameterError(f"axis {k!r} of model {spec.name} is {why}; axes are mu, theta, "
+                                 f"phi, r and the parameters {', '.join(pnames)}")
+        if k == "r" and "alpha" not in pnames:
+            raise ParameterError(f"axis r (alpha = r^2) needs a model with a parameter alpha; "
+                                 f"{spec.name} has {', '.join(pnames)}")
+        if isinstance(v, (dict, str, tuple)):
+            ax = ax_mod.axis_from_python(k, v)
+        else:
+            try:
+                a = np.asarray(v, dtype=np.float64)
+            except (TypeError, ValueError):
+                raise ParameterError(f"axis {k}={v!r} is not valid: values must be numbers") \
+                    from None
+            if a.ndim != 1 or a.size == 0:
+                raise ParameterError(f"axis {k} must be a non-empty 1-D list of numbers, got "
+                                     f"shape {a.shape}")
+            finite_or_raise(f"axis {k}", a)
+            ax = {"name": k, "values": a.tolist()}
+        ax = ax_mod.check_form(ax)
+        if (spacing or {}).get(k) and ax["spacing"] == "list":
+            ax["spacing"] = spacing[k]      # values made by the caller with this spacing
+        out.append(ax)
+    names = [a["name"] for a in out]
+    if ("mu" in names) == ("theta" in names):
+        raise ParameterError("a table needs one axis of the outgoing direction: mu (--axis "
+                             "mu=START:STOP:COUNT) or theta (radians, mu = cos theta)")
+    if "r" in names and "alpha" in names:
+        raise ParameterError("give axis r (alpha = r^2) or axis alpha, not both")
     return out
 
 
@@ -389,61 +407,98 @@ def _runtime_environment() -> dict:
     return {k: os.environ[k] for k in keys if k in os.environ}
 
 
+SPLIT = {"f0": [1.0, 0.0, 1.0], "f90": [0.0, 1.0, 1.0]}   # channels A, B, E = A + B
+
+
 def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: str = "brdf",
                  seed: int = 0, qmc: bool = False, precision: str = "single", device=None,
                  width: int | None = None, progress: bool = False, avg_nodes: int = GAUSS_NODES,
                  tol: float | None = None, max_evals: int | None = None,
                  phi_nodes: int | None = None, spacing: dict | None = None,
-                 command: str | None = None, **fixed):
-    """A table of E over the grid of ``axes`` (an ordered dict name -> 1-D array: ``mu``, ``phi``
-    (azimuth of wo, default 0) and any numeric model parameter, per-channel ones included), with
-    fixed parameters, options and ``preset`` in ``fixed``. Returns a dict with ``E``,
-    ``E_stderr`` (axes in the given order, then ``channel`` for an RGB model), one array per axis,
-    ``E_avg`` and ``E_avg_stderr`` over the axes other than mu and phi (averaged over the azimuth
-    for anisotropic models, see ``albedo_avg``), and ``metadata`` (a JSON string, everything the
-    bits depend on)."""
+                 split: bool = False, command: str | None = None, **fixed):
+    """A table of E over the grid of ``axes`` (an ordered dict name -> 1-D values, axis text
+    such as ``"0:1:32:centres"`` or an axis dict, see clbrdf.axes: ``mu`` or ``theta``, ``phi``
+    (azimuth of wo, default 0), ``r`` (alpha = r^2) and any numeric model parameter, per-channel
+    ones included), with fixed parameters, options and ``preset`` in ``fixed``. Returns a dict
+    with ``E``, ``E_stderr`` (axes in the given order, then ``channel`` for an RGB model), one
+    array per axis (its own values; the model is evaluated at ``clbrdf.axes.evaluated``),
+    ``E_avg`` and ``E_avg_stderr`` over the axes other than mu, theta and phi (averaged over the
+    azimuth for anisotropic models, see ``albedo_avg``), and ``metadata`` (a JSON string,
+    everything the bits depend on).
+
+    ``split=True`` (Schlick-Fresnel models) also gives ``A`` and ``B`` (and ``A_avg``, ``B_avg``,
+    each with ``_stderr``): E(F0) = F0 A + B, A with F = 1 - (1 - c)^5, B with F = (1 - c)^5 and
+    E = A + B with F = 1, all three from the same samples (channels of one RGB model with
+    (f0, f90) = (1, 0), (0, 1), (1, 1)): the scale and bias tables of Filament, UE and three.js."""
     from . import __version__
+    from . import axes as ax_mod
     spec = get_spec(name)
-    axes = _table_axes(spec, axes)
-    names = list(axes)
+    axl = _table_axes(spec, axes, spacing)
+    names = [a["name"] for a in axl]
+    evals = {a["name"]: ax_mod.evaluated(a) for a in axl}
+    model_name = {a["name"]: ax_mod.MAPPED[a["name"]][0] if a["name"] in ax_mod.MAPPED
+                  else a["name"] for a in axl}
     for k in names:
-        if k in fixed:
-            raise ParameterError(f"parameter {k} is given both as an axis and as a fixed value")
-    spacing = {k: (spacing or {}).get(k, "lin") for k in names}
-    pnames = [k for k in names if k not in ("mu", "phi")]
+        if k in fixed or model_name[k] in fixed:
+            raise ParameterError(f"parameter {model_name[k]} is given both as an axis ({k}) and "
+                                 f"as a fixed value")
+    if split:
+        bad = sorted(set(fixed) & {"f0", "f90", "preset", "channels", "eta", "k"})
+        if bad or fixed.get("fresnel", "schlick") != "schlick" or \
+                not any(p.name == "f90" for p in spec.params):
+            raise ParameterError(f"split=True needs a model with Schlick Fresnel (f0 and f90) "
+                                 f"and sets f0, f90 and channels itself; {name} with "
+                                 f"{', '.join(bad) or 'fresnel=' + str(fixed.get('fresnel'))}")
+        fixed = {**fixed, "fresnel": "schlick", "channels": 3, **SPLIT}
+    dir_axes = ("mu", "theta", "phi")
+    pnames = [k for k in names if k not in dir_axes]
     # a model at the first grid point tells which parameters are per channel
     probe = Model(name, precision=precision, device=device, width=width, **fixed,
-                  **{k: axes[k][0] for k in pnames})
-    grids = dict(zip(names, np.meshgrid(*[axes[k] for k in names], indexing="ij")))
+                  **{model_name[k]: evals[k][0] for k in pnames})
+    grids = dict(zip(names, np.meshgrid(*[evals[k] for k in names], indexing="ij")))
     spectral = set(probe.config.spectral) if probe.channels > 1 else set()
 
     def param_grid(g):      # a per-channel axis: one value for all channels (trailing axis 1)
-        return {k: (g[k][..., None] if k in spectral else g[k]) for k in pnames}
+        return {model_name[k]: (g[k][..., None] if model_name[k] in spectral else g[k])
+                for k in pnames}
     m = Model(name, precision=precision, device=device, width=width, **fixed, **param_grid(grids))
     t0 = time.perf_counter()
-    out = {k: axes[k] for k in names}
+    out = {k: np.asarray(a["values"], dtype=np.float64) for k, a in zip(names, axl)}
     quad = {"tol": tol, "max_evals": max_evals} if estimator == "quadrature" else {}
-    r = albedo(m, grids["mu"], grids.get("phi", 0.0), samples=samples, estimator=estimator,
+    mu_grid = grids["mu"] if "mu" in grids else grids["theta"]
+    r = albedo(m, mu_grid, grids.get("phi", 0.0), samples=samples, estimator=estimator,
                seed=seed, qmc=qmc, progress=progress, **quad)
     out["E"], out["E_stderr"] = r.albedo, r.stderr
-    all_names = names + (["channel"] if m.channels > 1 else [])
-    if m.channels > 1:                  # RGB: a last axis "channel" (0, 1, 2 = R, G, B)
+    channels = m.channels
+    if split:
+        for i, q in enumerate("ABE"):
+            out[q], out[q + "_stderr"] = r.albedo[..., i], r.stderr[..., i]
+        channels = 1
+    all_names = names + (["channel"] if channels > 1 else [])
+    if channels > 1:                    # RGB: a last axis "channel" (0, 1, 2 = R, G, B)
         out["channel"] = np.arange(m.channels, dtype=np.float64)
-    # E_avg over the parameter axes: the model at the first mu (and phi) index
+    # E_avg over the parameter axes: the model at the first direction index
     sub = dict(grids)
-    for i in sorted((names.index(k) for k in ("mu", "phi") if k in names), reverse=True):
+    for i in sorted((names.index(k) for k in dir_axes if k in names), reverse=True):
         sub = {n: v.take(0, axis=i) for n, v in sub.items()}
     ma = Model(name, precision=precision, device=device, width=width, **fixed, **param_grid(sub))
-    out["E_avg"], out["E_avg_stderr"] = albedo_avg(ma, nodes=avg_nodes, phi_nodes=phi_nodes,
-                                                   samples=samples, estimator=estimator,
-                                                   seed=seed, qmc=qmc, progress=progress, **quad)
+    avg, avg_s = albedo_avg(ma, nodes=avg_nodes, phi_nodes=phi_nodes, samples=samples,
+                            estimator=estimator, seed=seed, qmc=qmc, progress=progress, **quad)
+    if split:
+        for i, q in enumerate("ABE"):
+            out[q + "_avg"], out[q + "_avg_stderr"] = avg[..., i], avg_s[..., i]
+    else:
+        out["E_avg"], out["E_avg_stderr"] = avg, avg_s
     n_phi = (PHI_NODES if ma.anisotropic else 1) if phi_nodes is None else phi_nodes
     fixed_all = {k: (v.item() if v.ndim == 0 else v.tolist()) for k, v in probe.params.items()
-                 if k not in names}
+                 if k not in model_name.values() and not (split and k in SPLIT)}
     dev = m.device.info
-    meta = {"model": name, "fixed": {**fixed_all, **m.options}, "options": m.options,
-            "axes": all_names, "spacing": spacing, "channels": m.channels,
-            "estimator": estimator, "qmc": qmc, "samples": r.samples, "seed": int(seed),
+    options = dict(m.options)
+    meta = {"model": name, "fixed": {**fixed_all, **options}, "options": options,
+            "axes": all_names, "spacing": {a["name"]: a["spacing"] for a in axl},
+            "axis_specs": [{k: v for k, v in a.items() if k != "values"} for a in axl],
+            "channels": channels, "estimator": estimator, "qmc": qmc, "samples": r.samples,
+            "seed": int(seed),
             **({} if r.tol is None else {"tol": r.tol, "max_evals": max_evals or
                                          runtime.QUAD_MAX_EVALS}),
             "precision": precision, "width": m.width, "device": dev.name,
@@ -454,6 +509,13 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
             "E_avg": f"(1/pi) int E(wo) cos(theta_o) dwo: Gauss-Legendre with {avg_nodes} nodes "
                      f"in mu" + (f" x {n_phi} azimuths (trapezoid)" if n_phi > 1 else
                                  " (isotropic: phi = 0)")}
+    mapped = {a["name"]: ax_mod.MAPPED[a["name"]][1] for a in axl if a["name"] in ax_mod.MAPPED}
+    if mapped:
+        meta["mapped"] = mapped
+    if split:
+        meta["split"] = ("E(F0) = F0 A + B: A with F = 1 - (1 - wi.h)^5, B with F = (1 - wi.h)^5, "
+                         "E with F = 1, from the same samples")
+        meta["fixed"].pop("channels", None)
     if m.preset is not None:
         meta["preset"] = {"material": m.preset.material, "source": m.preset.source,
                           "attribution": m.preset.attribution}

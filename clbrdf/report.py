@@ -8,7 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .sweep import GAINS, NOT_DONE, VERDICTS, Sweep, _unwarp, point_values
+from .axes import unwarp, warp
+from .sweep import GAINS, NOT_DONE, VERDICTS, Sweep, point_values
 
 BINS = 40            # cells per axis of a map of random points
 WORST = 10
@@ -21,7 +22,7 @@ def _cells(job, i0, vals, n):
         counts = [len(a["values"]) for a in job["axes"]]
         idx = np.unravel_index(np.arange(i0, i0 + n), counts)
         return {a["name"]: ix for a, ix in zip(job["axes"], idx)}
-    return {a["name"]: np.clip((_unwarp(vals[a["name"]], a["start"], a["stop"], a["spacing"])
+    return {a["name"]: np.clip((unwarp(vals[a["name"]], a["start"], a["stop"], a["spacing"])
                                 * BINS).astype(int), 0, BINS - 1) for a in job["axes"]}
 
 
@@ -70,10 +71,10 @@ def _axis_coords(job, name):
         mid = (t[1:] + t[:-1]) / 2
         e = np.concatenate([[t[0] - (mid[0] - t[0])], mid, [t[-1] + (t[-1] - mid[-1])]])
         return (np.exp(e) if log else e), c, log
-    from .sweep import _warp
+
     u = np.linspace(0, 1, BINS + 1)
-    e = _warp(u, a["start"], a["stop"], a["spacing"])
-    c = _warp((u[1:] + u[:-1]) / 2, a["start"], a["stop"], a["spacing"])
+    e = warp(u, a["start"], a["stop"], a["spacing"])
+    c = warp((u[1:] + u[:-1]) / 2, a["start"], a["stop"], a["spacing"])
     return e, c, log
 
 

@@ -55,6 +55,7 @@ from pathlib import Path
 import numpy as np
 
 from . import runtime
+from .axes import axis_from_python, check_form, parse_axis, warp
 from .spec import ParameterError
 
 FORMAT = 1
@@ -64,7 +65,6 @@ ERROR_RATE = 1e-3         # default probability that a point's verdict is wrong
 GROWTH = 4                # each refinement multiplies a direction's samples by this
 MAX_GROWTH = 64           # default max_samples = MAX_GROWTH x samples (3 refinements)
 CHUNK_PAIRS = 1 << 17     # default chunk: about this many (point, direction) pairs
-SPACINGS = ("lin", "log", "sqrt")
 ESTIMATORS = ("uniform", "cosine", "brdf", "mis")
 DEFAULT_MU_NODES = 32     # isotropic default directions: Gauss-Legendre nodes in mu
 ANISO_DIRECTIONS = (16, 8)  # anisotropic default: 16 mu nodes x 8 azimuths
@@ -74,99 +74,6 @@ ARRAYS_1 = ("E_max", "E_max_stderr", "E_max_dir", "E_avg", "E_avg_stderr")
 # ---------------------------------------------------------------------------------------------
 # the job: everything the bits depend on, as JSON
 
-def _axis_values(start, stop, count, spacing) -> np.ndarray:
-    if spacing == "log":
-        return np.geomspace(start, stop, count)
-    if spacing == "sqrt":
-        return np.linspace(math.sqrt(start), math.sqrt(stop), count) ** 2
-    return np.linspace(start, stop, count)
-
-
-def _warp(u, start, stop, spacing):
-    """Map u in [0, 1) onto [start, stop] with the axis spacing (random points)."""
-    if spacing == "log":
-        return start * (stop / start) ** u
-    if spacing == "sqrt":
-        return (math.sqrt(start) + (math.sqrt(stop) - math.sqrt(start)) * u) ** 2
-    return start + (stop - start) * u
-
-
-def _unwarp(v, start, stop, spacing):
-    """The inverse of _warp: where a value lies on its axis, in [0, 1] (report maps)."""
-    v = np.asarray(v, dtype=np.float64)
-    if stop == start:
-        return np.zeros_like(v)
-    if spacing == "log":
-        return np.log(v / start) / math.log(stop / start)
-    if spacing == "sqrt":
-        return (np.sqrt(v) - math.sqrt(start)) / (math.sqrt(stop) - math.sqrt(start))
-    return (v - start) / (stop - start)
-
-
-def parse_axis(text: str) -> dict:
-    """``NAME=START:STOP:COUNT[:SPACING]``, ``NAME=START:STOP[:SPACING]`` (random points only) or
-    ``NAME=v1,v2,...`` -> an axis dict."""
-    form = ("expected NAME=START:STOP:COUNT[:lin|log|sqrt], NAME=START:STOP[:SPACING] (with "
-            "--random) or NAME=v1,v2,...")
-    name, sep, rest = text.partition("=")
-    name, rest = name.strip(), rest.strip()
-    if not sep or not name or not rest:
-        raise ParameterError(f"--axis {text!r} is malformed: {form}")
-
-    def num(s, what):
-        try:
-            v = float(s)
-        except ValueError:
-            raise ParameterError(f"--axis {text!r}: {what}={s.strip()!r} is not a number "
-                                 f"({form})") from None
-        if not math.isfinite(v):
-            raise ParameterError(f"--axis {text!r}: {what}={v!r} is not finite")
-        return v
-    if ":" not in rest:
-        return {"name": name, "values": [num(s, "value") for s in rest.split(",")]}
-    f = [s.strip() for s in rest.split(":")]
-    spacing = "lin"
-    if f[-1] in SPACINGS or (len(f) in (3, 4) and not f[-1].lstrip("+-").isdigit()
-                             and len(f) == 4):
-        spacing = f.pop()
-        if spacing not in SPACINGS:
-            raise ParameterError(f"--axis {text!r}: SPACING={spacing!r} is not valid: choose one "
-                                 f"of {', '.join(SPACINGS)}")
-    if len(f) not in (2, 3):
-        raise ParameterError(f"--axis {text!r} is malformed: {form}")
-    ax = {"name": name, "start": num(f[0], "START"), "stop": num(f[1], "STOP"), "spacing": spacing}
-    if len(f) == 3:
-        try:
-            ax["count"] = int(f[2])
-        except ValueError:
-            raise ParameterError(f"--axis {text!r}: COUNT={f[2]!r} is not an integer: valid COUNT "
-                                 f"is in [1, 1000000]") from None
-    return ax
-
-
-def _axis_from_python(name, v) -> dict:
-    """Python forms: a tuple (start, stop, count[, spacing]) or (start, stop[, spacing]) with
-    random points, a string as on the command line, a list or array of values, or a dict."""
-    if isinstance(v, dict):
-        return {"name": name, **v}
-    if isinstance(v, str):
-        return parse_axis(f"{name}={v}")
-    if isinstance(v, tuple):
-        rest = list(v)
-        ax = {"name": name}
-        if rest and isinstance(rest[-1], str):
-            ax["spacing"] = rest.pop()
-        if len(rest) not in (2, 3):
-            raise ParameterError(f"axis {name}={v!r} is malformed: give (start, stop, count[, "
-                                 f"spacing]), (start, stop[, spacing]) with random points, or a "
-                                 f"list of values")
-        ax["start"], ax["stop"] = float(rest[0]), float(rest[1])
-        if len(rest) == 3:
-            ax["count"] = rest[2]
-        return ax
-    return {"name": name, "values": np.asarray(v, dtype=np.float64).reshape(-1).tolist()}
-
-
 def _check_axis(ax: dict, spec, random: bool) -> dict:
     name = ax["name"]
     if not any(p.name == name for p in spec.params):
@@ -174,45 +81,16 @@ def _check_axis(ax: dict, spec, random: bool) -> dict:
         why = "an option: give it as a fixed argument (--param)" if name in opts else "not a parameter"
         raise ParameterError(f"axis {name!r} of model {spec.name} is {why}; axes are the "
                              f"parameters {', '.join(p.name for p in spec.params)}")
+    if ax.get("min") is not None:
+        raise ParameterError(f"axis {name}: min= is for tables; a sweep evaluates every value "
+                             f"it is given")
+    ax = check_form(ax, random)
     p = spec.param(name)
-    spacing = ax.get("spacing", "lin")
-    if spacing not in SPACINGS:
-        raise ParameterError(f"axis {name}: spacing={spacing!r} is not valid: choose one of "
-                             f"{', '.join(SPACINGS)}")
-    if "values" in ax:
-        if random:
-            raise ParameterError(f"axis {name} is a list of values: random points need a range "
-                                 f"START:STOP")
-        v = np.asarray(ax["values"], dtype=np.float64)
-        if v.ndim != 1 or v.size == 0:
-            raise ParameterError(f"axis {name} must be a non-empty list of numbers")
-        p.check(v)
-        return {"name": name, "values": v.tolist(), "spacing": "list"}
-    start, stop = float(ax["start"]), float(ax["stop"])
-    if spacing == "log" and (start <= 0 or stop <= 0):
-        raise ParameterError(f"axis {name}: log spacing needs START and STOP > 0, got "
-                             f"{start if start <= 0 else stop!r}: valid is (0, inf)")
-    if spacing == "sqrt" and (start < 0 or stop < 0):
-        raise ParameterError(f"axis {name}: sqrt spacing needs START and STOP >= 0")
-    p.check(np.array([start, stop]))
-    if random:
-        if ax.get("count") is not None:
-            raise ParameterError(f"axis {name}: with random points give START:STOP[:SPACING], "
-                                 f"not a COUNT ({ax['count']})")
-        if p.lo_open and min(start, stop) <= p.lo:
-            raise ParameterError(f"axis {name}: {min(start, stop)!r} is out of range: valid "
-                                 f"{name} is in {p.range_text()}")
-        return {"name": name, "start": start, "stop": stop, "spacing": spacing}
-    count = ax.get("count")
-    count = runtime.check_int(f"axis {name} COUNT", count, 1, 1_000_000) if count is not None \
-        else None
-    if count is None:
-        raise ParameterError(f"axis {name}: a grid axis needs a COUNT (START:STOP:COUNT) or "
-                             f"a list of values; or use random points (--random N)")
-    values = _axis_values(start, stop, count, spacing)
-    p.check(values)
-    return {"name": name, "start": start, "stop": stop, "count": count, "spacing": spacing,
-            "values": values.tolist()}
+    p.check(np.asarray(ax["values"] if "values" in ax else [ax["start"], ax["stop"]]))
+    if random and p.lo_open and min(ax["start"], ax["stop"]) <= p.lo:
+        raise ParameterError(f"axis {name}: {min(ax['start'], ax['stop'])!r} is out of range: "
+                             f"valid {name} is in {p.range_text()}")
+    return ax
 
 
 def gauss_directions(n_mu: int, n_phi: int = 1) -> dict:
@@ -278,7 +156,7 @@ def make_job(model: str, *, axes=None, random=None, directions=None, samples: in
         random = runtime.check_int("random", random, 1, 2**40, "[1, 2^40]")
     axes = axes or {}
     if isinstance(axes, dict):
-        axes = [_axis_from_python(k, v) for k, v in axes.items()]
+        axes = [axis_from_python(k, v) for k, v in axes.items()]
     else:
         axes = [parse_axis(a) if isinstance(a, str) else dict(a) for a in axes]
     names = [a["name"] for a in axes]
@@ -414,7 +292,7 @@ def point_values(job: dict, i0: int, i1: int) -> dict:
     with warnings.catch_warnings():     # balance warnings for counts that are not powers of 2
         warnings.simplefilter("ignore")
         u = sob.random(i1 - i0)
-    return {a["name"]: _warp(u[:, j], a["start"], a["stop"], a["spacing"])
+    return {a["name"]: warp(u[:, j], a["start"], a["stop"], a["spacing"])
             for j, a in enumerate(axes)}
 
 

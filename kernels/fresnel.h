@@ -9,6 +9,14 @@ inline realN fresnel_schlick(realN f0, realN c)
     return f0 + (1 - f0) * (m2 * m2 * m);
 }
 
+/* Generalised Schlick: F0 + (F90 - F0)(1 - c)^5; F90 = 1 is eq 11. With (F0, F90) = (1, 0) and
+ * (0, 1) it splits E(F0) = F0 A + B into the scale A and bias B that real-time renderers tabulate. */
+inline realN fresnel_schlick_f90(realN f0, realN f90, realN c)
+{
+    realN m = clamp(1 - c, (realN)0, (realN)1), m2 = m * m;
+    return f0 + (f90 - f0) * (m2 * m2 * m);
+}
+
 /* eta^2 - sin^2 theta for c = cos theta, from whichever of (eta - 1)(eta + 1) + c^2 and
  * eta^2 - (1 - c)(1 + c) has the smaller rounding error (eps (|eta^2 - 1| + c^2) against
  * eps (eta^2 + sin^2)): the first is exact at eta = 1, where the second loses c^2 at grazing; the

@@ -8,6 +8,7 @@
  * | alpha_x, alpha_y | roughness along x and y (anisotropic)     | [1e-4, 10]   |
  * | gamma / p        | shape of the GTR / SGD / exp-power NDF    | per header   |
  * | f0 (per channel) | Schlick reflectance at normal incidence   | [0, 1]       |
+ * | f90 (per channel)| Schlick reflectance at grazing (MF_F90)   | [0, 1]       |
  * | eta (per channel)| relative index (dielectric), or real part | (0, 100]     |
  * | k (per channel)  | extinction coefficient (conductor)        | [0, 100]     |
  * | ks (per channel) | scale of the specular term                | [0, 1e6]     |
@@ -17,6 +18,7 @@
  *   MF_DIST     ggx | beckmann (here) | gtr | sgd | exppow (dist_*.h, included by the host)
  *   MF_SHAPE    the parameter that fills Microfacet.shape (gamma, p), if the NDF has one
  *   MF_KS       0 | 1: the specular scale ks
+ *   MF_F90      0 | 1: Schlick's F with f90 (else f90 = 1)
  *   MF_ANISO    0: alpha; 1: alpha_x, alpha_y
  *   MF_MASKING  MASKING_NONE | MASKING_VCAVITY | MASKING_SEPARABLE | MASKING_CORRELATED
  *   MF_FRESNEL  FRESNEL_ONE | FRESNEL_SCHLICK | FRESNEL_DIELECTRIC | FRESNEL_CONDUCTOR
@@ -64,7 +66,9 @@ inline Microfacet mf_distribution(const Params *p)
 /* ks F(c) of channel ch. */
 inline realN mf_fresnel(const Params *p, realN c, int ch)
 {
-#if MF_FRESNEL == FRESNEL_SCHLICK
+#if MF_FRESNEL == FRESNEL_SCHLICK && MF_F90
+    realN F = fresnel_schlick_f90(p->f0[ch], p->f90[ch], c);
+#elif MF_FRESNEL == FRESNEL_SCHLICK
     realN F = fresnel_schlick(p->f0[ch], c);
 #elif MF_FRESNEL == FRESNEL_DIELECTRIC
     realN F = fresnel_dielectric(p->eta[ch], c);

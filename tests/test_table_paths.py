@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import clbrdf
-from clbrdf.core import albedo_table
+from clbrdf import albedo_table
 
 N = 1 << 13
 CASES = {
@@ -84,7 +84,7 @@ def test_isotropic_models_use_one_azimuth():
 
 @pytest.mark.parametrize("axes, match", [
     ({}, "axes={} is not valid"),
-    ({"alpha": [0.1]}, "a table needs a mu axis"),
+    ({"alpha": [0.1]}, "a table needs one axis of the outgoing direction: mu"),
     ({"mu": []}, r"axis mu must be a non-empty 1-D list of numbers, got shape \(0,\)"),
     ({"mu": [[0.1, 0.2]]}, r"axis mu must be a non-empty 1-D list .*shape \(1, 2\)"),
     ({"mu": 0.5}, r"axis mu must be a non-empty 1-D list .*shape \(\)"),
@@ -110,7 +110,7 @@ def test_python_table_metadata_is_complete():
     t = albedo_table("ggx", {"mu": [0.5], "alpha": [0.1, 0.2]}, samples=64,
                      spacing={"alpha": "log"}, width=4)
     meta = json.loads(t["metadata"])
-    assert meta["spacing"] == {"mu": "lin", "alpha": "log"}
+    assert meta["spacing"] == {"mu": "list", "alpha": "log"}
     assert meta["width"] == 4
     for k in ("device", "platform", "driver", "version", "environment", "precision", "seed"):
         assert k in meta, k

@@ -2,8 +2,9 @@
 
 f = ks F(wi.h) D(h) G(wi, wo, h) / (4 cos_i cos_o) + kd / pi  (Walter et al. 2007 eq 20;
 MODELS.md section 1). Only the terms a configuration uses are compiled: the Fresnel term follows
-the ``fresnel`` option (or, when it is not given, the Fresnel parameters given: f0 -> schlick,
-eta -> dielectric, eta and k -> conductor), the Lambertian term is compiled when kd is given, the
+the ``fresnel`` option (or, when it is not given, the Fresnel parameters given: f0 or f90 ->
+schlick, eta -> dielectric, eta and k -> conductor; f90 gives Schlick's F a grazing value other
+than 1, as Filament, UE and three.js do to split E into the scale and bias of F0), the Lambertian term is compiled when kd is given, the
 scale ks when ks is given, and alpha_x/alpha_y select the anisotropic form. f0, eta, k, ks and kd
 are per channel in an RGB model (channels=3).
 
@@ -20,6 +21,8 @@ PARAMS = (
     Param("alpha_x", "roughness along the tangent x (anisotropic)", *ROUGH, 0.5),
     Param("alpha_y", "roughness along the bitangent y (anisotropic)", *ROUGH, 0.5),
     Param("f0", "Schlick Fresnel reflectance at normal incidence", 0.0, 1.0, 0.04, spectral=True),
+    Param("f90", "Schlick Fresnel reflectance at grazing incidence (generalised Schlick)", 0.0,
+          1.0, 1.0, spectral=True),
     Param("eta", "relative index of refraction (dielectric) or its real part (conductor)",
           0.0, 100.0, 1.5, lo_open=True, spectral=True),
     Param("k", "extinction coefficient (conductor)", 0.0, 100.0, 3.0, spectral=True),
@@ -51,7 +54,7 @@ def configure(dist: str, shape: str | None = None, header: str | None = None,
         fresnel = opts.get("fresnel")
         if fresnel is None:
             fresnel = ("conductor" if {"eta", "k"} <= given else "dielectric" if "eta" in given
-                       else "schlick" if "f0" in given else "one")
+                       else "schlick" if {"f0", "f90"} & given else "one")
         masking = opts.get("masking", "correlated")
         sampler = opts.get("sampler", samplers[0])
         if sampler not in samplers:
@@ -59,6 +62,7 @@ def configure(dist: str, shape: str | None = None, header: str | None = None,
                                  f"choose one of {', '.join(samplers)}")
         diffuse = "kd" in given
         ks = "ks" in given
+        f90 = fresnel == "schlick" and "f90" in given
         defines = (
             ("MF_DIST", dist),
             ("MF_ANISO", str(int(len(rough) == 2))),
@@ -67,8 +71,10 @@ def configure(dist: str, shape: str | None = None, header: str | None = None,
             ("MF_DIFFUSE", str(int(diffuse))),
             ("MF_SAMPLER", f"SAMPLER_{sampler.upper()}"),
             ("MF_KS", str(int(ks))),
+            ("MF_F90", str(int(f90))),
         ) + ((("MF_SHAPE", shape),) if shape else ())
         used = (rough + ((shape,) if shape else ()) + FRESNEL_PARAMS[fresnel]
+                + (("f90",) if f90 else ())
                 + (("ks",) if ks else ()) + (("kd",) if diffuse else ()))
         return (defines, used, {"masking": masking, "fresnel": fresnel, "sampler": sampler},
                 (header,) if header else ())
@@ -84,7 +90,7 @@ def spec(name: str, title: str, reference: str, *, header: str | None = None,
     options = tuple(Option(o.name, o.meaning, samplers, samplers[0]) if o.name == "sampler" else o
                     for o in OPTIONS)
     notes = ("fresnel defaults to the Fresnel parameters given: f0 -> schlick, eta -> dielectric, "
-             "eta and k -> conductor, none -> one; ks scales the specular term; kd adds a "
+             "eta and k -> conductor, none -> one; f90 (with schlick) makes it F0 + (F90 - F0)(1 - c)^5; ks scales the specular term; kd adds a "
              "Lambertian term" + ("; alpha_x and alpha_y (instead of alpha) make it anisotropic"
                                   if aniso else ""))
     return ModelSpec(name=name, title=title, reference=reference, header="microfacet.h",

@@ -113,13 +113,14 @@ def G(masking, dist, wo, wi, h, alpha_x, alpha_y):
     return np.where(side, g, 0.0)
 
 
-def fresnel(kind, c, f0=None, eta=None, k=None):
-    """Unpolarised Fresnel reflectance at cos(angle) c (c = wi.h)."""
+def fresnel(kind, c, f0=None, eta=None, k=None, f90=None):
+    """Unpolarised Fresnel reflectance at cos(angle) c (c = wi.h); Schlick's with f90 (default 1)
+    is the generalised F0 + (F90 - F0)(1 - c)^5."""
     c = np.asarray(c, float)
     if kind == "one":
         return np.ones_like(c)
     if kind == "schlick":
-        return f0 + (1 - f0) * (1 - c) ** 5
+        return f0 + ((1.0 if f90 is None else f90) - f0) * (1 - c) ** 5
     if kind == "dielectric":
         # Cook-Torrance 1982: g = sqrt(eta^2 + c^2 - 1); total internal reflection when g^2 < 0
         g2 = eta ** 2 + c ** 2 - 1
@@ -157,7 +158,7 @@ def configure(model, **kw):
     kind = kw.pop("fresnel", None)
     if kind is None:
         kind = ("conductor" if {"eta", "k"} <= set(kw) else "dielectric" if "eta" in kw
-                else "schlick" if "f0" in kw else "one")
+                else "schlick" if {"f0", "f90"} & set(kw) else "one")
     for name, value, choices in (("masking", masking, MASKINGS), ("fresnel", kind, FRESNELS),
                                  ("lobe_sampler", lobe, LOBE_SAMPLERS)):
         if value not in choices:
@@ -173,13 +174,15 @@ def configure(model, **kw):
            "kd": np.asarray(kw.pop("kd", 0.0), float)}
     for name in FRESNEL_PARAMS[kind]:
         cfg[name] = np.asarray(kw.pop(name, DEFAULTS[name]), float)
+    if kind == "schlick" and "f90" in kw:
+        cfg["f90"] = np.asarray(kw.pop("f90"), float)
     if kw:
         raise TypeError(f"parameters {sorted(kw)} are not used by {model} with fresnel={kind}")
     return cfg
 
 
 def _fresnel(cfg, c):
-    return fresnel(cfg["fresnel"], c, cfg.get("f0"), cfg.get("eta"), cfg.get("k"))
+    return fresnel(cfg["fresnel"], c, cfg.get("f0"), cfg.get("eta"), cfg.get("k"), cfg.get("f90"))
 
 
 def _isotropic(cfg):
@@ -439,7 +442,8 @@ class MicrofacetReference(Reference):
 
     def F(self, c, v):
         """ks times the Fresnel term of the configuration at cosine c."""
-        return v.get("ks", 1.0) * fresnel(self.options["fresnel"], c, v.get("f0"), v.get("eta"), v.get("k"))
+        return v.get("ks", 1.0) * fresnel(self.options["fresnel"], c, v.get("f0"), v.get("eta"), v.get("k"),
+                                          v.get("f90"))
 
     def eval1(self, wo, wi, v, c):
         ci, co = wi[..., 2], wo[..., 2]
