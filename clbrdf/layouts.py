@@ -1,0 +1,135 @@
+"""Albedo tables in the layouts renderers load (``clbrdf table --layout NAME``).
+
+A layout (clbrdf/data/layouts.json) names the consumer's tables: each table's quantity (E, 1-E,
+E_avg, 1-E_avg, the Fresnel scale A and bias B, or a list of them as interleaved channels), its
+axes in the consumer's memory order (slowest first, ``clbrdf.axes`` text: spacing, nodes or
+texel centres, r for alpha = r^2, min= for the values the consumer evaluates at a clamped
+argument), the range it clamps to and its encoding (float32, float16, unorm16). ``make_layout``
+computes every table with ``albedo_table`` and returns ``clbrdf.table.Table`` objects.
+"""
+from __future__ import annotations
+
+import json
+from importlib import resources
+
+import numpy as np
+
+from .spec import ParameterError
+
+QUANTITIES = ("E", "1-E", "E_avg", "1-E_avg", "A", "B", "A_avg", "B_avg")
+ENCODINGS = ("float32", "float16", "unorm16")
+
+
+def layouts() -> dict:
+    """Every layout: name -> its description (the JSON entry)."""
+    text = resources.files("clbrdf").joinpath("data/layouts.json").read_text(encoding="utf-8")
+    return {k: v for k, v in json.loads(text).items() if not k.startswith("_")}
+
+
+def get_layout(name: str) -> dict:
+    all_ = layouts()
+    if name not in all_:
+        raise ParameterError(f"layout={name!r} is not known: choose one of {', '.join(all_)}")
+    return all_[name]
+
+
+def _quantities(q) -> list:
+    qs = [q] if isinstance(q, str) else list(q)
+    for x in qs:
+        if x not in QUANTITIES:
+            raise ParameterError(f"quantity {x!r} is not known: choose from {', '.join(QUANTITIES)}")
+    return qs
+
+
+def encode(values: np.ndarray, encoding: str) -> np.ndarray:
+    """The consumer's stored form of values in [0, 1] (float16 and unorm16 round to nearest)."""
+    if encoding == "float32":
+        return values.astype(np.float32)
+    if encoding == "float16":
+        return values.astype(np.float16)
+    if encoding == "unorm16":
+        return np.round(np.clip(values, 0, 1) * 65535).astype(np.uint16)
+    raise ParameterError(f"encoding={encoding!r} is not valid: choose one of {', '.join(ENCODINGS)}")
+
+
+def decode(raw: np.ndarray, encoding: str) -> np.ndarray:
+    """What the consumer reads from the stored form, as float64."""
+    if encoding == "unorm16":
+        return raw.astype(np.float64) / 65535
+    return raw.astype(np.float64)
+
+
+def compute_table(model: str, name: str, quantity, axes: list, *, fixed=None, value_range=None,
+                  encoding: str = "float32", layout: str | None = None, **kw):
+    """One table: ``quantity`` over ``axes`` (axis text or dicts, memory order) from
+    ``albedo_table``; returns a ``clbrdf.table.Table``."""
+    from .axes import parse_axis
+    from .core import albedo_table
+    from .table import Table
+    qs = _quantities(quantity)
+    if encoding not in ENCODINGS:
+        raise ParameterError(f"encoding={encoding!r} is not valid: choose one of "
+                             f"{', '.join(ENCODINGS)}")
+    axl = [parse_axis(a) if isinstance(a, str) else dict(a) for a in axes]
+    names = [a["name"] for a in axl]
+    avg = [q.endswith("_avg") for q in qs]
+    if any(avg) and not all(avg):
+        raise ParameterError(f"table {name}: quantities {qs} mix directional and average values")
+    if all(avg) and ({"mu", "theta", "phi"} & set(names)):
+        raise ParameterError(f"table {name}: an average ({qs[0]}) has no mu, theta or phi axis")
+    if not all(avg) and not ({"mu", "theta"} & set(names)):
+        raise ParameterError(f"table {name}: {qs[0]} needs a mu or theta axis")
+    split = any(q.lstrip("1-").split("_")[0] in ("A", "B") for q in qs)
+    t_axes = {a["name"]: a for a in axl}
+    if all(avg):        # the average needs no direction axis: one mu node, then the E_avg arrays
+        t_axes = {"mu": {"name": "mu", "values": [1.0]}, **t_axes}
+    fixed = dict(fixed or {})
+    if split:
+        fixed.pop("fresnel", None)
+    t = albedo_table(model, t_axes, split=split, **fixed, **kw)
+    meta = json.loads(t["metadata"])
+    chans, errs = [], []
+    for q in qs:
+        base = q[2:] if q.startswith("1-") else q
+        v, s = np.asarray(t[base], np.float64), np.asarray(t[base + "_stderr"], np.float64)
+        if all(avg):
+            pass
+        elif v.ndim != len(names):
+            raise ParameterError(f"table {name}: {q} of an RGB model has a channel axis; give "
+                                 f"a single-channel configuration")
+        chans.append(1 - v if q.startswith("1-") else v)
+        errs.append(s)
+    values = np.stack(chans, -1) if len(qs) > 1 else chans[0]
+    stderr = np.stack(errs, -1) if len(qs) > 1 else errs[0]
+    clamped = 0
+    if value_range is not None:
+        lo, hi = value_range
+        clamped = int(np.count_nonzero((values < lo) | (values > hi)))
+        values = np.clip(values, lo, hi)
+    raw = encode(values, encoding)
+    specs = {a["name"]: a for a in meta["axis_specs"]}
+    axes_out = [dict(specs[n], values=np.asarray(t[n], np.float64).tolist()) for n in names]
+    info = {"name": name, "quantity": qs, "encoding": encoding, "range": value_range,
+            "clamped_cells": clamped, "layout": layout, "computed": meta}
+    return Table(name=name, axes=axes_out, quantity=qs, raw=raw, stderr=stderr,
+                 encoding=encoding, meta=info)
+
+
+def make_layout(name: str, *, samples=None, estimator=None, progress=False, command=None, **kw):
+    """Every table of layout ``name`` (clbrdf/data/layouts.json) at the layout's published sample
+    count unless ``samples`` is given; returns {table name: Table}."""
+    lay = get_layout(name)
+    samples = lay.get("samples", 1 << 16) if samples is None else samples
+    estimator = lay.get("estimator", "brdf") if estimator is None else estimator
+    out = {}
+    for tab in lay["tables"]:
+        t = compute_table(lay["model"], tab["name"], tab["quantity"], tab["axes"],
+                          fixed={**lay.get("fixed", {}), **tab.get("fixed", {})},
+                          value_range=tab.get("range"), encoding=lay.get("encoding", "float32"),
+                          layout=name, samples=samples, estimator=estimator, progress=progress,
+                          command=command, **kw)
+        t.meta.update({"consumer": lay["consumer"], "source": lay["source"],
+                       "notes": lay.get("notes", ""),
+                       "published_samples": lay.get("samples")})
+        out[tab["name"]] = t
+    return out
