@@ -156,7 +156,8 @@ def check_form(ax: dict, random: bool = False) -> dict:
     name = ax["name"]
     spacing = ax.get("spacing", "lin")
     placement = ax.get("placement", "nodes")
-    if spacing not in SPACINGS:
+    is_list = "values" in ax and ax.get("start") is None
+    if spacing not in SPACINGS and not (is_list and spacing == "list"):
         raise ParameterError(f"axis {name}: spacing={spacing!r} is not valid: choose one of "
                              f"{', '.join(SPACINGS)}")
     if placement not in PLACEMENTS:
@@ -165,7 +166,7 @@ def check_form(ax: dict, random: bool = False) -> dict:
     extra = {k: ax[k] for k in ("min",) if ax.get(k) is not None}
     if "min" in extra and not math.isfinite(float(extra["min"])):
         raise ParameterError(f"axis {name}: min={extra['min']!r} is not finite")
-    if "values" in ax and ax.get("start") is None:
+    if is_list:
         if random:
             raise ParameterError(f"axis {name} is a list of values: random points need a range "
                                  f"START:STOP")
@@ -196,6 +197,21 @@ def check_form(ax: dict, random: bool = False) -> dict:
         out["placement"] = placement
     out["values"] = grid_values(start, stop, count, spacing, placement).tolist()
     return {**out, **extra}
+
+
+def midpoints(ax: dict) -> list:
+    """The coordinates halfway between neighbouring samples in the lookup's index space (where
+    linear interpolation is least accurate): warp((i + 1/2) / (N - 1)) for nodes, warp((i + 1) / N)
+    for texel centres, (v_i + v_i+1) / 2 for a list; N - 1 values (none for N = 1)."""
+    v = np.asarray(ax["values"], dtype=np.float64)
+    n = len(v)
+    if n < 2:
+        return []
+    if ax.get("spacing") == "list" or "count" not in ax:
+        return ((v[1:] + v[:-1]) / 2).tolist()
+    i = np.arange(n - 1, dtype=np.float64)
+    u = (i + 1) / n if ax.get("placement") == "centres" else (i + 0.5) / (n - 1)
+    return warp(u, ax["start"], ax["stop"], ax["spacing"]).tolist()
 
 
 def evaluated(ax: dict) -> np.ndarray:

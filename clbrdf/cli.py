@@ -349,16 +349,52 @@ def cmd_check(args) -> int:
     return 0 if r.passed else EXIT_CHECK_FAILED
 
 
-def cmd_table(args) -> int:
-    from . import tables
-    from .core import albedo_table
-    spec = _spec(args.model)
-    params = parse_params(spec, args.param)
-    out = Path(args.out)
-    try:
-        tables.check_output(out)
-    except ValueError as e:
-        raise ParameterError(f"--out {args.out!r}: {e}") from None
+def cmd_layouts(args) -> int:
+    from .layouts import layouts
+    all_ = layouts()
+    if args.json:
+        print(json.dumps(all_, indent=1))
+        return 0
+    for name, lay in all_.items():
+        print(f"{name}: {lay['consumer']}")
+        for t in lay["tables"]:
+            q = t["quantity"] if isinstance(t["quantity"], str) else ", ".join(t["quantity"])
+            print(f"    {t['name']}: {q} over {' x '.join(t['axes'])} "
+                  f"({lay.get('encoding', 'float32')})")
+        print(f"    source: {lay['source']}")
+    return 0
+
+
+def _layout_table(args, out) -> int:
+    from .layouts import get_layout, make_layout
+    from .table import check_out, save_tables
+    cmd = " ".join(["clbrdf"] + [_quote(a) for a in args.argv])
+    check_out(out)
+    if args.estimator == "quadrature" or args.tol is not None:
+        raise ParameterError("--layout tables are Monte Carlo estimates: --estimator quadrature "
+                             "is not available with --layout")
+    lay = get_layout(args.layout)
+    given = any(a in ("--samples", "-n") or a.startswith(("--samples=", "-n")) for a in args.argv)
+    samples = args.samples if given else lay.get("samples", 1 << 16)
+    est = args.estimator or lay.get("estimator", "brdf")
+    dev = _model(lay["model"], args, dict(lay.get("fixed", {}))).device   # fail early
+    del dev
+    t0 = time.perf_counter()
+    tables = make_layout(args.layout, samples=samples, estimator=est, seed=args.seed,
+                         qmc=args.qmc, precision=args.precision, device=args.device,
+                         width=args.width, progress=True, command=cmd)
+    seconds = time.perf_counter() - t0
+    written = save_tables(tables, out, prefix=_c_name(args.layout))
+    for name, t in tables.items():
+        print(f"{name}: {', '.join(t.quantity)} {' x '.join(str(n) for n in t.shape)} "
+              f"({t.encoding}), largest stderr {float(t.stderr.max()):.2g}")
+    print(f"layout {args.layout}: {samples} samples per cell, {est}"
+          f"{' + qmc' if args.qmc else ''}, {seconds:.1f} s; wrote {', '.join(map(str, written))}")
+    return 0
+
+
+def _table_axes_args(args, spec, params) -> dict:
+    """--axis texts -> axis dicts, each checked against the model before any work."""
     from .axes import MAPPED, check_form, evaluated, parse_axis
     from .spec import check_mu
     axes = {}
@@ -383,25 +419,80 @@ def cmd_table(args) -> int:
             elif name != "phi":
                 spec.param(target).check(v)
         except ParameterError as e:
-            raise ParameterError(f"--axis {text}: {_clean(e)}") from None
+            hint = ("" if "min" in ax or "values" not in ax else
+                    "; an axis can keep its values and be evaluated at max(value, LO) with "
+                    ":min=LO")
+            raise ParameterError(f"--axis {text}: {_clean(e)}{hint}") from None
         axes[name] = ax
     if "mu" not in axes and "theta" not in axes:
-        raise ParameterError("a table needs a mu axis: --axis mu=START:STOP:COUNT with mu in [1e-6, 1] (single) or [1e-12, 1] (double)")
+        raise ParameterError("a table needs a mu axis: --axis mu=START:STOP:COUNT with mu in "
+                             "[1e-6, 1] (single) or [1e-12, 1] (double), or theta")
+    return axes
+
+
+def cmd_table(args) -> int:
+    from . import tables
+    from .core import albedo_table
+    out = Path(args.out)
+    if args.layout:
+        if args.model or args.axis or args.param or args.preset:
+            raise ParameterError("--layout names the model, parameters and axes itself: give no "
+                                 "MODEL, --param, --preset or --axis with it")
+        return _layout_table(args, out)
+    if args.model is None:
+        raise ParameterError("MODEL is required (or --layout NAME)")
+    if not args.axis:
+        raise ParameterError("a table needs axes: --axis mu=START:STOP:COUNT (and more)")
+    spec = _spec(args.model)
+    params = parse_params(spec, args.param)
+    lut = out.suffix.lower() in (".h", ".exr")
+    if lut:
+        from .table import check_out
+        check_out(out)
+    else:
+        try:
+            tables.check_output(out)
+        except ValueError as e:
+            raise ParameterError(f"--out {args.out!r}: {e}") from None
+    axes = _table_axes_args(args, spec, params)
     # fail before computing on bad parameters or no device
     _model(spec.name, args, params)
     t0 = time.perf_counter()
     why = _choose_estimator(args)
-    table = albedo_table(spec.name, axes, samples=args.samples, estimator=args.estimator,
-                         seed=args.seed, qmc=args.qmc, precision=args.precision,
-                         device=args.device, width=args.width, progress=True, preset=args.preset,
-                         command=" ".join(["clbrdf"] + [_quote(a) for a in args.argv]),
-                         **_quad_args(args), **params)
-    seconds = time.perf_counter() - t0
-    written = tables.save_table(table, out)
-    print(tables.summary(table, seconds, written))
+    cmd = " ".join(["clbrdf"] + [_quote(a) for a in args.argv])
+    if lut:
+        from .layouts import compute_table
+        from .table import save_tables
+        if args.estimator == "quadrature":
+            raise ParameterError("a .h or .exr table is a Monte Carlo estimate: --estimator "
+                                 "quadrature writes .npz or .csv")
+        kw = dict(samples=args.samples, estimator=args.estimator, seed=args.seed, qmc=args.qmc,
+                  precision=args.precision, device=args.device, width=args.width, progress=True,
+                  command=cmd, fixed={**params, **({"preset": args.preset} if args.preset else {})})
+        luts = {"E": compute_table(spec.name, "E", "E", list(axes.values()), **kw)}
+        pax = [a for n, a in axes.items() if n not in ("mu", "theta", "phi")]
+        if pax:
+            luts["E_avg"] = compute_table(spec.name, "E_avg", "E_avg", pax, **kw)
+        written = save_tables(luts, out, prefix=_c_name(spec.name))
+        for name, t in luts.items():
+            print(f"{name}: {' x '.join(str(n) for n in t.shape)}, largest stderr "
+                  f"{float(t.stderr.max()):.2g}")
+        print(f"{time.perf_counter() - t0:.1f} s; wrote {', '.join(map(str, written))}")
+    else:
+        table = albedo_table(spec.name, axes, samples=args.samples, estimator=args.estimator,
+                             seed=args.seed, qmc=args.qmc, precision=args.precision,
+                             device=args.device, width=args.width, progress=True,
+                             preset=args.preset, command=cmd, **_quad_args(args), **params)
+        seconds = time.perf_counter() - t0
+        written = tables.save_table(table, out)
+        print(tables.summary(table, seconds, written))
     if why:
         print(f"(no --estimator: {why})")
     return 0
+
+
+def _c_name(s: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_]", "_", s)
 
 
 def cmd_sweep(args) -> int:
@@ -726,18 +817,41 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_albedo)
 
-    p = sub.add_parser("table", parents=[dev], help="albedo table over a grid, to .npz or .csv "
-                       "with a PNG chart",
+    from .layouts import layouts as _layouts
+    p = sub.add_parser("table", parents=[dev], help="albedo table over a grid, or a renderer's "
+                       "tables (--layout), to .npz, .csv, .h or .exr",
                        description="E over the grid of the axes and E_avg = 2 int E(mu) mu dmu over "
                                    "the non-mu axes; writes FILE (.npz or .csv, plus FILE.avg.csv "
-                                   "for .csv) and a chart FILE with suffix .png, atomically.")
-    model_arg(p)
-    p.add_argument("--axis", action="append", required=True, metavar="NAME=START:STOP:COUNT[:SPACING]",
-                   help="a grid axis: mu (required) or a numeric parameter; SPACING lin (default) "
-                        "or log; repeat for each axis")
+                                   "for .csv, and a chart FILE with suffix .png; or .h, a C header "
+                                   "for C99, C++17, CUDA and OpenCL C; or .exr), atomically. "
+                                   "--layout NAME writes a renderer's tables exactly in its layout "
+                                   "(axes, mapping, quantity, placement, encoding) to .h, .npz or "
+                                   ".exr; 'clbrdf layouts' lists them.")
+    p.add_argument("model", metavar="MODEL", nargs="?",
+                   help=f"one of {models} (not with --layout: the layout names it)")
+    p.add_argument("--param", "-p", action="append", default=[], metavar="NAME=VALUE",
+                   help="a parameter (alpha=0.3) or option (masking=vcavity); repeat for "
+                        "several; see 'clbrdf models'")
+    p.add_argument("--preset", metavar="MATERIAL[:SOURCE]",
+                   help="a published fit of MODEL to a MERL material (RGB), e.g. alum-bronze; "
+                        "--param values override it; see 'clbrdf models --presets'")
+    p.add_argument("--layout", choices=sorted(_layouts()), default=None,
+                   help="a renderer's tables in its layout (default samples: the layout's "
+                        "published count)")
+    p.add_argument("--axis", action="append", default=[],
+                   metavar="NAME=START:STOP:COUNT[:SPACING][:PLACEMENT][:min=LO]",
+                   help="a grid axis: mu or theta (radians), phi, r (alpha = r^2) or a numeric "
+                        "parameter; SPACING lin (default), log or sqrt; PLACEMENT nodes (default) "
+                        "or centres (texel centres); min=LO evaluates at max(value, LO); or "
+                        "NAME=v1,v2,...; repeat for each axis")
     sampling_args(p)
-    p.add_argument("--out", "-o", required=True, metavar="FILE", help="output .npz or .csv")
+    p.add_argument("--out", "-o", required=True, metavar="FILE",
+                   help="output .npz, .csv, .h or .exr")
     p.set_defaults(func=cmd_table)
+
+    p = sub.add_parser("layouts", help="the renderers' table layouts of 'clbrdf table --layout'")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=cmd_layouts)
 
     from .sweep import ERROR_RATE, ESTIMATORS as SWEEP_ESTIMATORS, MAX_GROWTH
     p = sub.add_parser("sweep", help="energy-conservation sweep over many parameter points, "

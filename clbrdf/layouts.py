@@ -59,12 +59,42 @@ def decode(raw: np.ndarray, encoding: str) -> np.ndarray:
     return raw.astype(np.float64)
 
 
-def compute_table(model: str, name: str, quantity, axes: list, *, fixed=None, value_range=None,
-                  encoding: str = "float32", layout: str | None = None, **kw):
-    """One table: ``quantity`` over ``axes`` (axis text or dicts, memory order) from
-    ``albedo_table``; returns a ``clbrdf.table.Table``."""
-    from .axes import parse_axis
+def _run(model, axl, qs, fixed, **kw):
+    """albedo_table over the axes for quantities qs -> (values, stderr, metadata) with channels
+    last when there are several quantities."""
     from .core import albedo_table
+    names = [a["name"] for a in axl]
+    avg = qs[0].endswith("_avg")
+    split = any(q.removeprefix("1-").split("_")[0] in ("A", "B") for q in qs)
+    t_axes = {a["name"]: a for a in axl}
+    if avg:         # the average needs no direction axis: one mu node, then the E_avg arrays
+        t_axes = {"mu": {"name": "mu", "values": [1.0]}, **t_axes}
+    fixed = dict(fixed or {})
+    if split:
+        fixed.pop("fresnel", None)
+    t = albedo_table(model, t_axes, split=split, average=avg, **fixed, **kw)
+    chans, errs = [], []
+    for q in qs:
+        base = q.removeprefix("1-")
+        v, s = np.asarray(t[base], np.float64), np.asarray(t[base + "_stderr"], np.float64)
+        if v.ndim != len(names):
+            raise ParameterError(f"{q} of an RGB model has a channel axis; give a "
+                                 f"single-channel configuration")
+        chans.append(1 - v if q.startswith("1-") else v)
+        errs.append(s)
+    stack = (lambda x: np.stack(x, -1)) if len(qs) > 1 else (lambda x: x[0])
+    return stack(chans), stack(errs), t
+
+
+def compute_table(model: str, name: str, quantity, axes: list, *, fixed=None, value_range=None,
+                  encoding: str = "float32", layout: str | None = None,
+                  check_interpolation: bool = True, **kw):
+    """One table: ``quantity`` over ``axes`` (axis text or dicts, memory order) from
+    ``albedo_table``; returns a ``clbrdf.table.Table``. ``check_interpolation`` also estimates
+    E halfway between neighbouring samples on every axis (``clbrdf.axes.midpoints``) and records
+    the largest difference from the table's own lookup there (interpolation and encoding error,
+    plus both estimates' noise) in ``meta["interpolation"]``."""
+    from .axes import check_form, midpoints, parse_axis
     from .table import Table
     qs = _quantities(quantity)
     if encoding not in ENCODINGS:
@@ -79,28 +109,8 @@ def compute_table(model: str, name: str, quantity, axes: list, *, fixed=None, va
         raise ParameterError(f"table {name}: an average ({qs[0]}) has no mu, theta or phi axis")
     if not all(avg) and not ({"mu", "theta"} & set(names)):
         raise ParameterError(f"table {name}: {qs[0]} needs a mu or theta axis")
-    split = any(q.lstrip("1-").split("_")[0] in ("A", "B") for q in qs)
-    t_axes = {a["name"]: a for a in axl}
-    if all(avg):        # the average needs no direction axis: one mu node, then the E_avg arrays
-        t_axes = {"mu": {"name": "mu", "values": [1.0]}, **t_axes}
-    fixed = dict(fixed or {})
-    if split:
-        fixed.pop("fresnel", None)
-    t = albedo_table(model, t_axes, split=split, **fixed, **kw)
+    values, stderr, t = _run(model, axl, qs, fixed, **kw)
     meta = json.loads(t["metadata"])
-    chans, errs = [], []
-    for q in qs:
-        base = q[2:] if q.startswith("1-") else q
-        v, s = np.asarray(t[base], np.float64), np.asarray(t[base + "_stderr"], np.float64)
-        if all(avg):
-            pass
-        elif v.ndim != len(names):
-            raise ParameterError(f"table {name}: {q} of an RGB model has a channel axis; give "
-                                 f"a single-channel configuration")
-        chans.append(1 - v if q.startswith("1-") else v)
-        errs.append(s)
-    values = np.stack(chans, -1) if len(qs) > 1 else chans[0]
-    stderr = np.stack(errs, -1) if len(qs) > 1 else errs[0]
     clamped = 0
     if value_range is not None:
         lo, hi = value_range
@@ -111,8 +121,30 @@ def compute_table(model: str, name: str, quantity, axes: list, *, fixed=None, va
     axes_out = [dict(specs[n], values=np.asarray(t[n], np.float64).tolist()) for n in names]
     info = {"name": name, "quantity": qs, "encoding": encoding, "range": value_range,
             "clamped_cells": clamped, "layout": layout, "computed": meta}
-    return Table(name=name, axes=axes_out, quantity=qs, raw=raw, stderr=stderr,
-                 encoding=encoding, meta=info)
+    table = Table(name=name, axes=axes_out, quantity=qs, raw=raw, stderr=stderr,
+                  encoding=encoding, meta=info)
+    if check_interpolation and any(len(a["values"]) > 1 for a in axes_out):
+        mids = []
+        for a in axes_out:
+            m = midpoints(a) or a["values"]
+            mids.append(check_form({"name": a["name"], "values": m,
+                                    **({"min": a["min"]} if a.get("min") is not None else {})}))
+        mv, ms, _ = _run(model, mids, qs, fixed, **{**kw, "progress": False,
+                                                     "seed": kw.get("seed", 0) + 1})
+        if value_range is not None:
+            mv = np.clip(mv, *value_range)
+        grids = np.meshgrid(*[np.asarray(a["values"]) for a in mids], indexing="ij")
+        err = np.abs(table.lookup(*grids) - mv)
+        i = np.unravel_index(int(np.argmax(err)), err.shape)
+        table.meta["interpolation"] = {
+            "max_error": float(err[i]), "rms_error": float(np.sqrt(np.mean(err ** 2))),
+            "at": {a["name"]: float(a["values"][k]) for a, k in zip(mids, i)},
+            "stderr_there": float(np.hypot(ms[i], table.stderr[tuple(
+                min(int(round(table.index(d, a["values"][k]))), n - 1)
+                for d, (a, k, n) in enumerate(zip(mids, i, table.shape))) + i[len(mids):]])),
+            "how": "|lookup - direct estimate| halfway between neighbouring samples on every "
+                   "axis (independent samples)"}
+    return table
 
 
 def make_layout(name: str, *, samples=None, estimator=None, progress=False, command=None, **kw):

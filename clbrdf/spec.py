@@ -92,11 +92,19 @@ class ModelSpec:
     # (defines, parameter values) -> whether E(wo) may depend on the azimuth of wo; None: never.
     # Averages over wo (E_avg) integrate over the azimuth where it does.
     anisotropic_fn: Callable | None = None
+    # (defines, parameter values, channels) -> mu where E(mu) may have a kink (an array, last axis the
+    # kinks, NaN for none), e.g. the critical angle of total internal reflection; averages over
+    # mu (E_avg) split their Gauss-Legendre rule there. None: E is smooth in mu.
+    mu_kinks_fn: Callable | None = None
     # the float64 reference: a module of clbrdf/ref/ whose REFERENCES has this model
     ref: str = ""
 
     def anisotropic(self, cfg: "Config", values: dict) -> bool:
         return bool(self.anisotropic_fn and self.anisotropic_fn(dict(cfg.defines), values))
+
+    def mu_kinks(self, cfg: "Config", values: dict):
+        return (self.mu_kinks_fn(dict(cfg.defines), values, cfg.channels) if self.mu_kinks_fn
+                else None)
 
     def param(self, name: str) -> Param:
         for p in self.params:

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import io
 import json
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -222,18 +223,29 @@ def _load_exr(path) -> dict:
     return out
 
 
-def save_tables(tables: dict, out, *, prefix: str = "clbrdf") -> list:
-    """Write {name: Table} to ``out`` (.npz, .h or .exr, module docstring); returns the paths."""
-    from .tables import check_output, write_together
+def check_out(out) -> Path:
+    """Before any work: a known suffix, an existing directory that takes new files."""
+    from .tables import check_output
     out = Path(out)
-    suffix = out.suffix.lower()
-    if suffix not in SUFFIXES:
-        raise ParameterError(f"--out {str(out)!r}: unknown suffix {out.suffix!r}: a layout writes "
-                             f"{', '.join(SUFFIXES)}")
-    try:
-        _check_dir(out, check_output)
+    if out.suffix.lower() not in SUFFIXES:
+        raise ParameterError(f"--out {str(out)!r}: unknown suffix {out.suffix!r}: these tables "
+                             f"are written as {', '.join(SUFFIXES)}")
+    if out.is_dir():
+        raise ParameterError(f"--out {str(out)!r} is a directory; give a file name")
+    try:   # check_output knows the plain tables' suffixes: probe the directory as .npz
+        check_output(out.with_suffix(".npz"))
     except ValueError as e:
         raise ParameterError(f"--out {str(out)!r}: {e}") from None
+    if out.exists() and not os.access(out, os.W_OK):
+        raise ParameterError(f"--out {str(out)!r} is not writable")
+    return out
+
+
+def save_tables(tables: dict, out, *, prefix: str = "clbrdf") -> list:
+    """Write {name: Table} to ``out`` (.npz, .h or .exr, module docstring); returns the paths."""
+    from .tables import write_together
+    out = check_out(out)
+    suffix = out.suffix.lower()
     if suffix == ".npz":
         data = _npz_bytes(tables)
     elif suffix == ".h":
@@ -243,13 +255,6 @@ def save_tables(tables: dict, out, *, prefix: str = "clbrdf") -> list:
         data = _exr_bytes(tables, out)
     write_together({out: data})
     return [out]
-
-
-def _check_dir(out: Path, check_output):
-    # check_output knows the plain table suffixes; a probe with .npz checks the directory
-    check_output(out.with_suffix(".npz") if out.suffix.lower() != ".npz" else out)
-    if out.is_dir():
-        raise ValueError(f"{str(out)!r} is a directory; give a file name")
 
 
 def load_tables(path) -> dict:

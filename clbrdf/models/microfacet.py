@@ -81,6 +81,17 @@ def configure(dist: str, shape: str | None = None, header: str | None = None,
     return fn
 
 
+def critical_mu(defines: dict, values: dict, channels: int):
+    """Dielectric Fresnel with eta < 1 reflects totally for sin theta > eta: F(wi.h), and so E
+    of a smooth surface, has a kink at mu = sqrt(1 - eta^2) (one per channel); NaN elsewhere."""
+    import numpy as np
+    if defines.get("MF_FRESNEL") != "FRESNEL_DIELECTRIC":
+        return None
+    eta = np.asarray(values["eta"], dtype=np.float64)
+    mu = np.where(eta < 1, np.sqrt(np.clip(1 - eta * eta, 0, 1)), np.nan)
+    return mu if channels > 1 else mu[..., None]
+
+
 def spec(name: str, title: str, reference: str, *, header: str | None = None,
          shape: Param | None = None, samplers=("vndf", "ndf"), aniso: bool = True, ref: str = "microfacet") -> ModelSpec:
     """A microfacet model with distribution ``name`` (see the module docstring)."""
@@ -96,7 +107,8 @@ def spec(name: str, title: str, reference: str, *, header: str | None = None,
     return ModelSpec(name=name, title=title, reference=reference, header="microfacet.h",
                      prefix="microfacet", params=params, options=options,
                      configure_fn=configure(name, shape.name if shape else None, header, samplers),
-                     notes=notes, anisotropic_fn=lambda d, v: d.get("MF_ANISO") == "1", ref=ref)
+                     notes=notes, anisotropic_fn=lambda d, v: d.get("MF_ANISO") == "1",
+                     mu_kinks_fn=critical_mu, ref=ref)
 
 
 GGX = spec("ggx", "Microfacet, GGX (Trowbridge-Reitz) distribution",
