@@ -349,6 +349,30 @@ def cmd_check(args) -> int:
     return 0 if r.passed else EXIT_CHECK_FAILED
 
 
+def cmd_furnace(args) -> int:
+    from .layouts import white_furnace
+    from .table import load_tables
+    path = Path(args.file)
+    if not path.is_file():
+        raise ParameterError(f"FILE {args.file!r} does not exist")
+    tables = load_tables(path)
+    r = white_furnace(tables, samples=args.samples, device=args.device)
+    if args.json:
+        print(json.dumps({k: np.asarray(v).tolist() for k, v in r.items()}))
+        return 0
+    kc = "kulla_conty" in r
+    print(f"white furnace of {path.name}: albedo before and after compensation "
+          f"({args.samples} samples per E_ss)")
+    print(f"{'r':>5} {'mu':>5} {'E_ss':>9} {'+-':>8} {'Turquin':>9}" + (f" {'Kulla-Conty':>12}" if kc else ""))
+    for idx in np.ndindex(r["r"].shape):
+        line = (f"{r['r'][idx]:5.2f} {r['mu'][idx]:5.2f} {r['E_ss'][idx]:9.6f} "
+                f"{r['E_ss_stderr'][idx]:8.1e} {r['turquin'][idx]:9.6f}")
+        if kc:
+            line += f" {r['kulla_conty'][idx]:12.6f}"
+        print(line)
+    return 0
+
+
 def cmd_layouts(args) -> int:
     from .layouts import layouts
     all_ = layouts()
@@ -365,11 +389,12 @@ def cmd_layouts(args) -> int:
     return 0
 
 
-def _layout_table(args, out) -> int:
+def _layout_table(args, outs) -> int:
     from .layouts import get_layout, make_layout
     from .table import check_out, save_tables
     cmd = " ".join(["clbrdf"] + [_quote(a) for a in args.argv])
-    check_out(out)
+    for o in outs:
+        check_out(o)
     if args.estimator == "quadrature" or args.tol is not None:
         raise ParameterError("--layout tables are Monte Carlo estimates: --estimator quadrature "
                              "is not available with --layout")
@@ -384,7 +409,7 @@ def _layout_table(args, out) -> int:
                          qmc=args.qmc, precision=args.precision, device=args.device,
                          width=args.width, progress=True, command=cmd)
     seconds = time.perf_counter() - t0
-    written = save_tables(tables, out, prefix=_c_name(args.layout))
+    written = [w for o in outs for w in save_tables(tables, o, prefix=_c_name(args.layout))]
     for name, t in tables.items():
         print(f"{name}: {', '.join(t.quantity)} {' x '.join(str(n) for n in t.shape)} "
               f"({t.encoding}), largest stderr {float(t.stderr.max()):.2g}")
@@ -433,27 +458,34 @@ def _table_axes_args(args, spec, params) -> dict:
 def cmd_table(args) -> int:
     from . import tables
     from .core import albedo_table
-    out = Path(args.out)
+    outs = [Path(o) for o in args.out]
+    out = outs[0]
+    if len(outs) > 1 and not (args.layout or all(o.suffix.lower() in (".h", ".exr", ".npz")
+                                                 for o in outs) and any(
+            o.suffix.lower() in (".h", ".exr") for o in outs)):
+        raise ParameterError("--out is given several times: only layouts and .h/.exr tables "
+                             "write several files")
     if args.layout:
         if args.model or args.axis or args.param or args.preset:
             raise ParameterError("--layout names the model, parameters and axes itself: give no "
                                  "MODEL, --param, --preset or --axis with it")
-        return _layout_table(args, out)
+        return _layout_table(args, outs)
     if args.model is None:
         raise ParameterError("MODEL is required (or --layout NAME)")
     if not args.axis:
         raise ParameterError("a table needs axes: --axis mu=START:STOP:COUNT (and more)")
     spec = _spec(args.model)
     params = parse_params(spec, args.param)
-    lut = out.suffix.lower() in (".h", ".exr")
+    lut = len(outs) > 1 or out.suffix.lower() in (".h", ".exr")
     if lut:
         from .table import check_out
-        check_out(out)
+        for o in outs:
+            check_out(o)
     else:
         try:
             tables.check_output(out)
         except ValueError as e:
-            raise ParameterError(f"--out {args.out!r}: {e}") from None
+            raise ParameterError(f"--out {str(out)!r}: {e}") from None
     axes = _table_axes_args(args, spec, params)
     # fail before computing on bad parameters or no device
     _model(spec.name, args, params)
@@ -473,7 +505,7 @@ def cmd_table(args) -> int:
         pax = [a for n, a in axes.items() if n not in ("mu", "theta", "phi")]
         if pax:
             luts["E_avg"] = compute_table(spec.name, "E_avg", "E_avg", pax, **kw)
-        written = save_tables(luts, out, prefix=_c_name(spec.name))
+        written = [w for o in outs for w in save_tables(luts, o, prefix=_c_name(spec.name))]
         for name, t in luts.items():
             print(f"{name}: {' x '.join(str(n) for n in t.shape)}, largest stderr "
                   f"{float(t.stderr.max()):.2g}")
@@ -845,9 +877,22 @@ def build_parser() -> argparse.ArgumentParser:
                         "or centres (texel centres); min=LO evaluates at max(value, LO); or "
                         "NAME=v1,v2,...; repeat for each axis")
     sampling_args(p)
-    p.add_argument("--out", "-o", required=True, metavar="FILE",
-                   help="output .npz, .csv, .h or .exr")
+    p.add_argument("--out", "-o", required=True, metavar="FILE", action="append",
+                   help="output .npz, .csv, .h or .exr; with --layout or .h/.exr it may be "
+                        "repeated (one computation, several files)")
     p.set_defaults(func=cmd_table)
+
+    p = sub.add_parser("furnace", parents=[dev],
+                       help="white furnace of GGX energy compensation with a layout's tables",
+                       description="E_ss(mu, r) estimated directly, and the albedo after Turquin's "
+                                   "(f_ss / E) and Kulla-Conty's (f_ss + f_ms) compensation with "
+                                   "the tables of FILE (.npz or .exr from 'clbrdf table --layout'): "
+                                   "1 for a perfect table.")
+    p.add_argument("file", metavar="FILE")
+    p.add_argument("--samples", "-n", type=int, default=1 << 20, metavar="N",
+                   help="samples per direct estimate of E_ss (default 2^20)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=cmd_furnace)
 
     p = sub.add_parser("layouts", help="the renderers' table layouts of 'clbrdf table --layout'")
     p.add_argument("--json", action="store_true", help="print one JSON object")

@@ -16,6 +16,7 @@ import numpy as np
 
 from .spec import ParameterError
 
+CHECK_SAMPLES = 1 << 18   # samples per midpoint of the interpolation check (at most)
 QUANTITIES = ("E", "1-E", "E_avg", "1-E_avg", "A", "B", "A_avg", "B_avg")
 ENCODINGS = ("float32", "float16", "unorm16")
 
@@ -93,7 +94,8 @@ def compute_table(model: str, name: str, quantity, axes: list, *, fixed=None, va
     ``albedo_table``; returns a ``clbrdf.table.Table``. ``check_interpolation`` also estimates
     E halfway between neighbouring samples on every axis (``clbrdf.axes.midpoints``) and records
     the largest difference from the table's own lookup there (interpolation and encoding error,
-    plus both estimates' noise) in ``meta["interpolation"]``."""
+    plus both estimates' noise; at most CHECK_SAMPLES samples per midpoint) in
+    ``meta["interpolation"]``."""
     from .axes import check_form, midpoints, parse_axis
     from .table import Table
     qs = _quantities(quantity)
@@ -129,8 +131,9 @@ def compute_table(model: str, name: str, quantity, axes: list, *, fixed=None, va
             m = midpoints(a) or a["values"]
             mids.append(check_form({"name": a["name"], "values": m,
                                     **({"min": a["min"]} if a.get("min") is not None else {})}))
-        mv, ms, _ = _run(model, mids, qs, fixed, **{**kw, "progress": False,
-                                                     "seed": kw.get("seed", 0) + 1})
+        ck = {**kw, "progress": False, "seed": kw.get("seed", 0) + 1,
+              "samples": min(kw.get("samples", CHECK_SAMPLES), CHECK_SAMPLES)}
+        mv, ms, _ = _run(model, mids, qs, fixed, **ck)
         if value_range is not None:
             mv = np.clip(mv, *value_range)
         grids = np.meshgrid(*[np.asarray(a["values"]) for a in mids], indexing="ij")
@@ -164,4 +167,62 @@ def make_layout(name: str, *, samples=None, estimator=None, progress=False, comm
                        "notes": lay.get("notes", ""),
                        "published_samples": lay.get("samples")})
         out[tab["name"]] = t
+    return out
+
+
+def _find(tables: dict, directional: bool):
+    """The table of E (or 1 - E) over (mu, r) / the average over r, single quantity."""
+    for t in tables.values():
+        q = t.quantity[0].removeprefix("1-")
+        names = set(t.axis_names)
+        if directional and q == "E" and names == {"mu", "r"}:
+            return t
+        if not directional and q == "E_avg" and names == {"r"}:
+            return t
+    return None
+
+
+def _read(t, **coords):
+    v = t.lookup(**coords)
+    return 1 - v if t.quantity[0].startswith("1-") else v
+
+
+def white_furnace(tables: dict, *, r=(0.1, 0.25, 0.5, 0.75, 1.0), mu=(0.05, 0.2, 0.5, 1.0),
+                  samples: int = 1 << 20, seed: int = 7, **kw) -> dict:
+    """The white furnace of GGX energy compensation with these tables (a layout's E over
+    (mu, r) and, for Kulla-Conty, E_avg over r): the single-scattering albedo E_ss(mu, r)
+    estimated directly (``clbrdf.albedo``, the layout's model at alpha = r^2, independent
+    samples) before compensation, and after:
+
+    - Turquin 2019 (Cycles, UE, Filament): f = f_ss / E_tab(mu_o), so E = E_ss / E_tab;
+    - Kulla & Conty 2017 (OSPRay, OpenPBR): f = f_ss + (1 - E_tab(mu_o)) (1 - E_tab(mu_i)) /
+      (pi (1 - E_avg_tab)), so E = E_ss + (1 - E_tab(mu_o)) 2 int (1 - E_tab(x)) x dx /
+      (1 - E_avg_tab), the integral by 64 Gauss-Legendre nodes of the table's lookup.
+
+    Both are 1 for a perfect table; what is left is the table's error (interpolation, noise)
+    and E_avg's consistency with E. Returns arrays over (r, mu) and the stderr of E_ss."""
+    import clbrdf
+    t = _find(tables, True)
+    if t is None:
+        raise ParameterError("white_furnace needs a table of E or 1-E over the axes mu and r")
+    ta = _find(tables, False)
+    comp = t.meta.get("computed", {})
+    fixed = {k: v for k, v in comp.get("options", {}).items()}
+    R, MU = np.meshgrid(np.asarray(r, float), np.asarray(mu, float), indexing="ij")
+    m = clbrdf.Model(comp.get("model", "ggx"), alpha=R ** 2, **fixed,
+                     **{k: kw.pop(k) for k in ("device", "width", "precision") if k in kw})
+    d = clbrdf.albedo(m, MU, samples=samples, seed=seed, **kw)
+    e_tab = _read(t, mu=MU, r=R)
+    out = {"r": R, "mu": MU, "E_ss": d.albedo, "E_ss_stderr": d.stderr, "E_table": e_tab,
+           "turquin": d.albedo / e_tab}
+    if ta is not None:
+        x, w = np.polynomial.legendre.leggauss(64)
+        x, w = (x + 1) / 2, w / 2
+        integral = np.stack([np.sum(w * (1 - _read(t, mu=x, r=np.full_like(x, rv))) * x) * 2
+                             for rv in np.asarray(r, float)])[:, None]
+        e_avg = _read(ta, r=R)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            norm = np.where(1 - e_avg > 0, integral / (1 - e_avg), 1.0)
+        out["E_avg_table"] = e_avg
+        out["kulla_conty"] = d.albedo + (1 - e_tab) * norm
     return out

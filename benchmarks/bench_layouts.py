@@ -1,0 +1,119 @@
+#!/usr/bin/env python3
+"""Time for each renderer layout (clbrdf table --layout NAME) at its published sample count, with
+the brdf estimator on Philox numbers (the layout's default) and with Sobol points (the estimator
+docs/accuracy/README.md recommends: brdf + qmc), and the max error of the stored values against
+a reference: the same table by the double-precision quadrature (tol 1e-8) on every node of
+tables up to 1024 cells, on every 4th (2-D) or 2nd (3-D) node of the larger ones.
+
+Times are wall and CPU seconds of make_layout without the interpolation check, median of
+--rounds runs (the reference once). The error includes the stored encoding's rounding.
+
+    python benchmarks/bench_layouts.py [--write] [--rounds 1] [--only cycles threejs]
+"""
+import argparse
+import datetime as _dt
+import statistics
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+RESULTS = HERE / "RESULTS.md"
+BEGIN, END = "<!-- bench_layouts:begin -->", "<!-- bench_layouts:end -->"
+
+
+def timed(fn, rounds):
+    ws, cs, out = [], [], None
+    for _ in range(rounds):
+        t, c = time.perf_counter(), time.process_time()
+        out = fn()
+        ws.append(time.perf_counter() - t)
+        cs.append(time.process_time() - c)
+    return statistics.median(ws), statistics.median(cs), out
+
+
+def subgrid(t):
+    """Axis values of the reference grid and their indices in the table."""
+    step = 1 if np.prod(t.shape) <= 1024 else (4 if len(t.shape) <= 2 else 2)
+    idx = [np.arange(0, n, step) for n in t.shape]
+    axes = []
+    for a, i in zip(t.axes, idx):
+        ax = {"name": a["name"], "values": np.asarray(a["values"])[i].tolist()}
+        if a.get("min") is not None:
+            ax["min"] = a["min"]
+        axes.append(ax)
+    return axes, idx
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--rounds", type=int, default=1)
+    ap.add_argument("--write", action="store_true")
+    ap.add_argument("--only", nargs="*")
+    a = ap.parse_args()
+    import clbrdf
+    from clbrdf.layouts import compute_table, get_layout, layouts, make_layout
+    warnings.simplefilter("ignore")
+    rows = []
+    for name, lay in layouts().items():
+        if a.only and name not in a.only:
+            continue
+        n = lay["samples"]
+        runs = {}
+        for label, qmc in (("brdf", False), ("brdf + qmc", True)):
+            runs[label] = timed(lambda: make_layout(name, samples=n, qmc=qmc,
+                                                    check_interpolation=False), a.rounds)
+        t_ref = time.perf_counter()
+        refs = {}
+        for tab in lay["tables"]:
+            t = runs["brdf"][2][tab["name"]]
+            axes, idx = subgrid(t)
+            r = compute_table(lay["model"], "ref", tab["quantity"], axes,
+                              fixed={**lay.get("fixed", {}), **tab.get("fixed", {})},
+                              value_range=tab.get("range"), estimator="quadrature",
+                              precision="double", tol=1e-8, check_interpolation=False)
+            refs[tab["name"]] = (r.values, np.ix_(*idx))
+        t_ref = time.perf_counter() - t_ref
+        for label, (w, c, tables) in runs.items():
+            errs, sds = [], []
+            for tname, (ref, ix) in refs.items():
+                v = tables[tname].values[ix]
+                errs.append(float(np.max(np.abs(v - ref))))
+                sds.append(float(np.max(tables[tname].stderr)))
+            cells = sum(int(np.prod(t.shape)) * len(t.quantity) for t in tables.values())
+            rows.append((name, label, n, cells, w, c, max(errs), max(sds)))
+            print(f"{name:15s} {label:11s} {n:>9d} samples  {cells:6d} values  {w:7.2f} s wall "
+                  f"{c:7.2f} s CPU  max error {max(errs):.2e}  max stderr {max(sds):.1e}",
+                  flush=True)
+        print(f"{'':15s} reference {t_ref:.0f} s", flush=True)
+    if a.write:
+        import platform
+        dev = clbrdf.get_device().info
+        text = [BEGIN, "## Renderer layouts (`benchmarks/bench_layouts.py`)", "",
+                f"Measured {_dt.date.today()} on {platform.processor() or platform.machine()} "
+                f"({dev.name}; {dev.platform}), {__import__('os').cpu_count()} cores, single "
+                f"precision, width 16. Each layout's tables at its published sample count per "
+                f"cell, without the interpolation check; max error of the stored (encoded) "
+                f"values against the double-precision quadrature (tol 1e-8) on every node "
+                f"(tables up to 1024 cells) or every 4th (2-D) / 2nd (3-D) node. Run: "
+                f"`{' '.join(['python'] + sys.argv)}`.", "",
+                "| layout | estimator | samples per cell | values | wall s | CPU s | max error | "
+                "max stderr |", "|---|---|---:|---:|---:|---:|---:|---:|"]
+        for name, label, n, cells, w, c, e, s in rows:
+            text.append(f"| {name} | {label} | {n} | {cells} | {w:.2f} | {c:.2f} | {e:.1e} | "
+                        f"{s:.1e} |")
+        text.append(END)
+        old = RESULTS.read_text()
+        block = "\n".join(text)
+        if BEGIN in old:
+            old = old[:old.index(BEGIN)] + block + old[old.index(END) + len(END):]
+        else:
+            old = old.rstrip("\n") + "\n\n" + block + "\n"
+        RESULTS.write_text(old)
+
+
+if __name__ == "__main__":
+    main()
