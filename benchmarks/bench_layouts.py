@@ -3,7 +3,7 @@
 the brdf estimator on Philox numbers (the layout's default) and with Sobol points (the estimator
 docs/accuracy/README.md recommends: brdf + qmc), and the max error of the stored values against
 a reference: the same table by the double-precision quadrature (tol 1e-8) on every node of
-tables up to 1024 cells, on every 4th (2-D) or 2nd (3-D) node of the larger ones.
+tables up to 1024 cells, on every 4th node of each axis of the larger ones.
 
 Times are wall and CPU seconds of make_layout without the interpolation check, median of
 --rounds runs (the reference once). The error includes the stored encoding's rounding.
@@ -37,7 +37,7 @@ def timed(fn, rounds):
 
 def subgrid(t):
     """Axis values of the reference grid and their indices in the table."""
-    step = 1 if np.prod(t.shape) <= 1024 else (4 if len(t.shape) <= 2 else 2)
+    step = 1 if np.prod(t.shape) <= 1024 else 4
     idx = [np.arange(0, n, step) for n in t.shape]
     axes = []
     for a, i in zip(t.axes, idx):
@@ -55,7 +55,7 @@ def main():
     ap.add_argument("--only", nargs="*")
     a = ap.parse_args()
     import clbrdf
-    from clbrdf.layouts import compute_table, get_layout, layouts, make_layout
+    from clbrdf.layouts import compute_table, layouts, make_layout, table_config
     warnings.simplefilter("ignore")
     rows = []
     for name, lay in layouts().items():
@@ -71,8 +71,8 @@ def main():
         for tab in lay["tables"]:
             t = runs["brdf"][2][tab["name"]]
             axes, idx = subgrid(t)
-            r = compute_table(lay["model"], "ref", tab["quantity"], axes,
-                              fixed={**lay.get("fixed", {}), **tab.get("fixed", {})},
+            model, fixed = table_config(lay, tab)
+            r = compute_table(model, "ref", tab["quantity"], axes, fixed=fixed,
                               value_range=tab.get("range"), estimator="quadrature",
                               precision="double", tol=1e-8, check_interpolation=False)
             refs[tab["name"]] = (r.values, np.ix_(*idx))
@@ -98,15 +98,23 @@ def main():
                 f"precision, width 16. Each layout's tables at its published sample count per "
                 f"cell, without the interpolation check; max error of the stored (encoded) "
                 f"values against the double-precision quadrature (tol 1e-8) on every node "
-                f"(tables up to 1024 cells) or every 4th (2-D) / 2nd (3-D) node. Run: "
+                f"(tables up to 1024 cells) or every 4th node of each axis. Run: "
                 f"`{' '.join(['python'] + sys.argv)}`.", "",
                 "| layout | estimator | samples per cell | values | wall s | CPU s | max error | "
                 "max stderr |", "|---|---|---:|---:|---:|---:|---:|---:|"]
+        old = RESULTS.read_text()
+        kept = []          # rows of layouts not run this time (--only) stay
+        if BEGIN in old:
+            for line in old[old.index(BEGIN):old.index(END)].splitlines():
+                cells_ = [c.strip() for c in line.strip("|").split("|")]
+                if line.startswith("| ") and len(cells_) == 8 and cells_[0] in layouts() \
+                        and cells_[0] not in {r[0] for r in rows}:
+                    kept.append(line)
+        text += kept
         for name, label, n, cells, w, c, e, s in rows:
             text.append(f"| {name} | {label} | {n} | {cells} | {w:.2f} | {c:.2f} | {e:.1e} | "
                         f"{s:.1e} |")
         text.append(END)
-        old = RESULTS.read_text()
         block = "\n".join(text)
         if BEGIN in old:
             old = old[:old.index(BEGIN)] + block + old[old.index(END) + len(END):]

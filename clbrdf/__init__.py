@@ -8,3 +8,5 @@ from . import presets  # noqa: F401
 from .spec import ParameterError  # noqa: F401
 from .check import check  # noqa: F401,E402  (clbrdf.check(model, ...): the property battery)
 from .sweep import open_sweep, sweep  # noqa: F401,E402  (clbrdf.sweep(model, store, ...): energy sweeps)
+from .table import Table, load_tables, save_tables  # noqa: F401,E402  (renderer-layout tables)
+from .layouts import make_layout, white_furnace  # noqa: F401,E402

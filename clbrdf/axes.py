@@ -68,7 +68,7 @@ def parse_axis(text: str) -> dict:
             ax["placement"] = "centres" if f == "centers" else f
         elif f.startswith("min="):
             ax["min"] = num(f[4:], "min")
-        elif nums is not None and not ({"spacing", "placement", "min"} & set(ax)):
+        elif len(nums) < 3 and not ({"spacing", "placement", "min"} & set(ax)):
             nums.append(f)
         else:
             raise ParameterError(f"--axis {text!r}: {f!r} is not a spacing ({', '.join(SPACINGS)}),"

@@ -395,19 +395,16 @@ def _layout_table(args, outs) -> int:
     cmd = " ".join(["clbrdf"] + [_quote(a) for a in args.argv])
     for o in outs:
         check_out(o)
-    if args.estimator == "quadrature" or args.tol is not None:
-        raise ParameterError("--layout tables are Monte Carlo estimates: --estimator quadrature "
-                             "is not available with --layout")
     lay = get_layout(args.layout)
     given = any(a in ("--samples", "-n") or a.startswith(("--samples=", "-n")) for a in args.argv)
     samples = args.samples if given else lay.get("samples", 1 << 16)
-    est = args.estimator or lay.get("estimator", "brdf")
-    dev = _model(lay["model"], args, dict(lay.get("fixed", {}))).device   # fail early
-    del dev
+    why = _choose_estimator(args)          # brdf with Sobol points unless --estimator
+    est = args.estimator
+    _model(lay["model"], args, dict(lay.get("fixed", {})))      # no device: fail before work
     t0 = time.perf_counter()
     tables = make_layout(args.layout, samples=samples, estimator=est, seed=args.seed,
                          qmc=args.qmc, precision=args.precision, device=args.device,
-                         width=args.width, progress=True, command=cmd)
+                         width=args.width, progress=True, command=cmd, **_quad_args(args))
     seconds = time.perf_counter() - t0
     written = [w for o in outs for w in save_tables(tables, o, prefix=_c_name(args.layout))]
     for name, t in tables.items():
@@ -415,6 +412,8 @@ def _layout_table(args, outs) -> int:
               f"({t.encoding}), largest stderr {float(t.stderr.max()):.2g}")
     print(f"layout {args.layout}: {samples} samples per cell, {est}"
           f"{' + qmc' if args.qmc else ''}, {seconds:.1f} s; wrote {', '.join(map(str, written))}")
+    if why:
+        print(f"(no --estimator: {why})")
     return 0
 
 

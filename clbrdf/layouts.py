@@ -150,16 +150,24 @@ def compute_table(model: str, name: str, quantity, axes: list, *, fixed=None, va
     return table
 
 
+def table_config(lay: dict, tab: dict) -> tuple:
+    """(model, fixed parameters and options) of one table of a layout: the layout's, or the
+    table's own model (a sheen table in a GGX layout) with the table's options."""
+    model = tab.get("model", lay["model"])
+    base = lay.get("fixed", {}) if model == lay["model"] else {}
+    return model, {**base, **tab.get("fixed", {})}
+
+
 def make_layout(name: str, *, samples=None, estimator=None, progress=False, command=None, **kw):
     """Every table of layout ``name`` (clbrdf/data/layouts.json) at the layout's published sample
     count unless ``samples`` is given; returns {table name: Table}."""
     lay = get_layout(name)
     samples = lay.get("samples", 1 << 16) if samples is None else samples
-    estimator = lay.get("estimator", "brdf") if estimator is None else estimator
+    estimator = "brdf" if estimator is None else estimator
     out = {}
     for tab in lay["tables"]:
-        t = compute_table(lay["model"], tab["name"], tab["quantity"], tab["axes"],
-                          fixed={**lay.get("fixed", {}), **tab.get("fixed", {})},
+        model, fixed = table_config(lay, tab)
+        t = compute_table(model, tab["name"], tab["quantity"], tab["axes"], fixed=fixed,
                           value_range=tab.get("range"), encoding=lay.get("encoding", "float32"),
                           layout=name, samples=samples, estimator=estimator, progress=progress,
                           command=command, **kw)

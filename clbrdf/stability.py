@@ -63,6 +63,7 @@ SWEEPS = {
     "holzschuch_pacanowski": [(("sigma",), ROUGH), (("p",), SHAPE_P)],
     "ward": [(("alpha_x", "alpha_y"), (1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 1.0))],
     "sgd_bagher": [(("alpha",), (1e-5,) + ROUGH)],
+    "charlie": [(("alpha",), (1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 1.0))],
 }
 MUS = (1e-12, 1e-6, 1e-4, 1e-3, 1e-2, 0.1, 0.3, 0.6, 1.0)
 ESTIMATORS = ("uniform", "cosine", "brdf", "mis")

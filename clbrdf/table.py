@@ -162,8 +162,17 @@ def _load_npz(path) -> dict:
         return out
 
 
+def _openexr():
+    try:
+        import OpenEXR
+    except ImportError:
+        raise ParameterError(".exr files need the OpenEXR package: pip install 'clbrdf[exr]'") \
+            from None
+    return OpenEXR
+
+
 def _exr_bytes(tables: dict, path: Path) -> bytes:
-    import OpenEXR
+    OpenEXR = _openexr()
     parts = []
     # a multi-part file shares one display window: the largest table's; each part's data
     # window is its own size
@@ -200,7 +209,7 @@ def _exr_bytes(tables: dict, path: Path) -> bytes:
 
 
 def _load_exr(path) -> dict:
-    import OpenEXR
+    OpenEXR = _openexr()
     from .layouts import encode
     out = {}
     with OpenEXR.File(str(path), separate_channels=True) as f:
@@ -238,6 +247,8 @@ def check_out(out) -> Path:
         raise ParameterError(f"--out {str(out)!r}: {e}") from None
     if out.exists() and not os.access(out, os.W_OK):
         raise ParameterError(f"--out {str(out)!r} is not writable")
+    if out.suffix.lower() == ".exr":
+        _openexr()              # before any work
     return out
 
 
