@@ -404,7 +404,8 @@ def _layout_table(args, outs) -> int:
     t0 = time.perf_counter()
     tables = make_layout(args.layout, samples=samples, estimator=est, seed=args.seed,
                          qmc=args.qmc, precision=args.precision, device=args.device,
-                         width=args.width, progress=True, command=cmd, **_quad_args(args))
+                         width=args.width, progress=True, command=cmd, **_quad_args(args),
+                         **_target_args(args))
     seconds = time.perf_counter() - t0
     written = [w for o in outs for w in save_tables(tables, o, prefix=_c_name(args.layout))]
     for name, t in tables.items():
@@ -499,7 +500,8 @@ def cmd_table(args) -> int:
                                  "quadrature writes .npz or .csv")
         kw = dict(samples=args.samples, estimator=args.estimator, seed=args.seed, qmc=args.qmc,
                   precision=args.precision, device=args.device, width=args.width, progress=True,
-                  command=cmd, fixed={**params, **({"preset": args.preset} if args.preset else {})})
+                  command=cmd, fixed={**params, **({"preset": args.preset} if args.preset else {})},
+                  **_target_args(args))
         luts = {"E": compute_table(spec.name, "E", "E", list(axes.values()), **kw)}
         pax = [a for n, a in axes.items() if n not in ("mu", "theta", "phi")]
         if pax:
@@ -513,13 +515,23 @@ def cmd_table(args) -> int:
         table = albedo_table(spec.name, axes, samples=args.samples, estimator=args.estimator,
                              seed=args.seed, qmc=args.qmc, precision=args.precision,
                              device=args.device, width=args.width, progress=True,
-                             preset=args.preset, command=cmd, **_quad_args(args), **params)
+                             preset=args.preset, command=cmd, **_quad_args(args),
+                             **_target_args(args), **params)
         seconds = time.perf_counter() - t0
         written = tables.save_table(table, out)
         print(tables.summary(table, seconds, written))
     if why:
         print(f"(no --estimator: {why})")
     return 0
+
+
+def _target_args(args) -> dict:
+    out = {}
+    if getattr(args, "target_stderr", None) is not None:
+        out["target_stderr"] = args.target_stderr
+    if getattr(args, "max_samples", None) is not None:
+        out["max_samples"] = args.max_samples
+    return out
 
 
 def _c_name(s: str) -> str:
@@ -876,6 +888,11 @@ def build_parser() -> argparse.ArgumentParser:
                         "or centres (texel centres); min=LO evaluates at max(value, LO); or "
                         "NAME=v1,v2,...; repeat for each axis")
     sampling_args(p)
+    p.add_argument("--target-stderr", type=float, default=None, metavar="S",
+                   help="refine each cell (and average) whose standard error is above S: 4x "
+                        "its samples per look, independent numbers, up to --max-samples")
+    p.add_argument("--max-samples", type=int, default=None, metavar="N",
+                   help="the most samples a refined cell takes (default 64 x --samples)")
     p.add_argument("--out", "-o", required=True, metavar="FILE", action="append",
                    help="output .npz, .csv, .h or .exr; with --layout or .h/.exr it may be "
                         "repeated (one computation, several files)")

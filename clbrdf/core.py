@@ -452,6 +452,38 @@ def _runtime_environment() -> dict:
 
 
 SPLIT = {"f0": [1.0, 0.0, 1.0], "f90": [0.0, 1.0, 1.0]}   # channels A, B, E = A + B
+GROWTH = 4          # a refined cell's samples grow by this factor per look
+
+
+def _refine(est, err, shape, run, samples, target, max_samples, seed):
+    """Refine the cells of ``shape`` (est and err: that shape, channels last for an RGB model)
+    whose standard error (largest over channels) is above ``target``: per look r each draws
+    (GROWTH - 1) x its samples with the seed derived from (seed, r), pooled by sample counts,
+    until it meets the target or reaches ``max_samples``. ``run(flat cell indices, samples,
+    seed) -> (est, err)`` of those cells. Returns est, err and the samples per cell."""
+    from .sweep import derive_seed
+    est, err = np.array(est, dtype=np.float64), np.array(err, dtype=np.float64)
+    rgb = est.ndim > len(shape)
+    e2 = est.reshape((-1,) + est.shape[len(shape):])
+    s2 = err.reshape((-1,) + err.shape[len(shape):])
+    n = np.full(e2.shape[0], samples, dtype=np.int64)
+    look = 0
+    while True:
+        worst = s2.max(axis=-1) if rgb else s2
+        need = np.flatnonzero((worst > target) & (n < max_samples))
+        if need.size == 0:
+            break
+        look += 1
+        add = int(min(n[need[0]] * (GROWTH - 1), max_samples - n[need[0]]))
+        e_new, s_new = run(need, add, derive_seed(seed, look))
+        e_new = np.asarray(e_new, np.float64).reshape(e2[need].shape)
+        s_new = np.asarray(s_new, np.float64).reshape(s2[need].shape)
+        w_old = (n[need] / (n[need] + add)).reshape((-1,) + (1,) * (e2.ndim - 1))
+        w_new = 1 - w_old
+        e2[need] = w_old * e2[need] + w_new * e_new
+        s2[need] = np.sqrt((w_old * s2[need]) ** 2 + (w_new * s_new) ** 2)
+        n[need] += add
+    return e2.reshape(est.shape), s2.reshape(err.shape), n.reshape(shape)
 
 
 def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: str = "brdf",
@@ -459,8 +491,8 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
                  width: int | None = None, progress: bool = False, avg_nodes: int = GAUSS_NODES,
                  tol: float | None = None, max_evals: int | None = None,
                  phi_nodes: int | None = None, spacing: dict | None = None,
-                 split: bool = False, average: bool = True, command: str | None = None,
-                 **fixed):
+                 split: bool = False, average: bool = True, target_stderr: float | None = None,
+                 max_samples: int | None = None, command: str | None = None, **fixed):
     """A table of E over the grid of ``axes`` (an ordered dict name -> 1-D values, axis text
     such as ``"0:1:32:centres"`` or an axis dict, see clbrdf.axes: ``mu`` or ``theta``, ``phi``
     (azimuth of wo, default 0), ``r`` (alpha = r^2) and any numeric model parameter, per-channel
@@ -475,11 +507,31 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
     each with ``_stderr``): E(F0) = F0 A + B, A with F = 1 - (1 - c)^5, B with F = (1 - c)^5 and
     E = A + B with F = 1, all three from the same samples (channels of one RGB model with
     (f0, f90) = (1, 0), (0, 1), (1, 1)): the scale and bias tables of Filament, UE and three.js.
-    ``average=False`` leaves out the averages (and their cost)."""
+    ``average=False`` leaves out the averages (and their cost).
+
+    ``target_stderr``: cells (and averages) whose standard error (the largest over channels)
+    is above it get GROWTH times their samples per look from independent numbers (seed derived
+    from (seed, look)), pooled with what they have, until they meet it or reach
+    ``max_samples`` (default 64 x samples); ``E_samples`` (and ``E_avg_samples``) say how many
+    each took. Not with the quadrature, whose ``tol`` is its target."""
     from . import __version__
     from . import axes as ax_mod
     spec = get_spec(name)
     axl = _table_axes(spec, axes, spacing)
+    if target_stderr is not None:
+        if estimator == "quadrature":
+            raise ParameterError("target_stderr is for the Monte Carlo estimators; the "
+                                 "quadrature's target is tol")
+        if isinstance(target_stderr, bool) or not 0 < float(target_stderr) < 1:
+            raise ParameterError(f"target_stderr={target_stderr!r} is out of range: valid is "
+                                 f"(0, 1)")
+        samples = runtime.check_int("samples", samples, 2, 2**32 - 1, "[2, 2^32)")
+        max_samples = runtime.check_int("max_samples", 64 * samples if max_samples is None
+                                        else max_samples, samples, 2**32 - 1,
+                                        f"[samples={samples}, 2^32)")
+    elif max_samples is not None:
+        raise ParameterError("max_samples is the cap of target_stderr's refinement: give "
+                             "target_stderr too")
     names = [a["name"] for a in axl]
     evals = {a["name"]: ax_mod.evaluated(a) for a in axl}
     model_name = {a["name"]: ax_mod.MAPPED[a["name"]][0] if a["name"] in ax_mod.MAPPED
@@ -512,13 +564,27 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
     out = {k: np.asarray(a["values"], dtype=np.float64) for k, a in zip(names, axl)}
     quad = {"tol": tol, "max_evals": max_evals} if estimator == "quadrature" else {}
     mu_grid = grids["mu"] if "mu" in grids else grids["theta"]
-    r = albedo(m, mu_grid, grids.get("phi", 0.0), samples=samples, estimator=estimator,
+    phi_grid = grids.get("phi", np.zeros_like(mu_grid))
+    r = albedo(m, mu_grid, phi_grid, samples=samples, estimator=estimator,
                seed=seed, qmc=qmc, progress=progress, **quad)
     out["E"], out["E_stderr"] = r.albedo, r.stderr
+    mc = dict(estimator=estimator, qmc=qmc)
+    if target_stderr is not None:
+        def run_e(idx, n, sd):
+            g = {k: v.reshape(-1)[idx] for k, v in grids.items()}
+            sub = Model(name, precision=precision, device=device, width=width, **fixed,
+                        **param_grid(g))
+            d = albedo(sub, mu_grid.reshape(-1)[idx], phi_grid.reshape(-1)[idx], samples=n,
+                       seed=sd, **mc)
+            return d.albedo, d.stderr
+        out["E"], out["E_stderr"], out["E_samples"] = _refine(
+            out["E"], out["E_stderr"], mu_grid.shape, run_e, samples, target_stderr,
+            max_samples, seed)
     channels = m.channels
     if split:
+        full, full_s = out["E"], out["E_stderr"]
         for i, q in enumerate("ABE"):
-            out[q], out[q + "_stderr"] = r.albedo[..., i], r.stderr[..., i]
+            out[q], out[q + "_stderr"] = full[..., i], full_s[..., i]
         channels = 1
     all_names = names + (["channel"] if channels > 1 else [])
     if channels > 1:                    # RGB: a last axis "channel" (0, 1, 2 = R, G, B)
@@ -535,6 +601,18 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
                                 estimator=estimator, seed=seed, qmc=qmc, progress=progress,
                                 **quad)
         n_phi = (PHI_NODES if ma.anisotropic else 1) if phi_nodes is None else phi_nodes
+        if target_stderr is not None:
+            pshape = np.broadcast_shapes(*[v.shape for v in sub.values()]) if sub else ()
+
+            def run_a(idx, n, sd):
+                g = {k: np.broadcast_to(v, pshape).reshape(-1)[idx] for k, v in sub.items()}
+                sm = Model(name, precision=precision, device=device, width=width, **fixed,
+                           **param_grid(g))
+                return albedo_avg(sm, nodes=avg_nodes, phi_nodes=phi_nodes, samples=n, seed=sd,
+                                  **mc)
+            avg, avg_s, out["E_avg_samples"] = _refine(
+                np.asarray(avg), np.asarray(avg_s), pshape, run_a, samples, target_stderr,
+                max_samples, seed)
         if split:
             for i, q in enumerate("ABE"):
                 out[q + "_avg"], out[q + "_avg_stderr"] = avg[..., i], avg_s[..., i]
@@ -548,6 +626,10 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
             "axes": all_names, "spacing": {a["name"]: a["spacing"] for a in axl},
             "axis_specs": [{k: v for k, v in a.items() if k != "values"} for a in axl],
             "channels": channels, "estimator": estimator, "qmc": qmc, "samples": r.samples,
+            **({} if target_stderr is None else
+               {"target_stderr": float(target_stderr), "max_samples": max_samples,
+                "refinement": f"cells above target_stderr get {GROWTH}x their samples per look "
+                              f"(independent numbers), up to max_samples"}),
             "seed": int(seed),
             **({} if r.tol is None else {"tol": r.tol, "max_evals": max_evals or
                                          runtime.QUAD_MAX_EVALS}),

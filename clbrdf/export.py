@@ -17,7 +17,7 @@ import re
 
 import numpy as np
 
-from .axes import MAPPED, describe
+from .axes import describe
 
 PORTABILITY = """\
 #ifndef CLBRDF_LUT_PORTABLE
@@ -85,7 +85,7 @@ def _index_expr(a: dict, var: str, axis_array: str) -> list:
         sign = "" if v[-1] >= v[0] else "-"
         return [f"float {out};",
                 "{",
-                f"    int lut_k = 0;",
+                "    int lut_k = 0;",
                 f"    while (lut_k < {n - 2} && {sign}{var} > {sign}{axis_array}[lut_k + 1]) lut_k++;",
                 f"    float lut_d = {sign}{axis_array}[lut_k + 1] - {sign}{axis_array}[lut_k];",
                 f"    float lut_t = lut_d > 0.0f ? ({sign}{var} - {sign}{axis_array}[lut_k]) / lut_d : 1.0f;",
@@ -219,5 +219,3 @@ def c_header(tables: dict, *, prefix: str = "clbrdf", guard: str = "tables.h") -
     parts.append(f"#endif /* {g} */\n")
     return "".join(parts)
 
-
-__all__ = ["c_header", "MAPPED"]

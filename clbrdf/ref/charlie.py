@@ -4,7 +4,7 @@ written without the kernel. Quadrature over the cosine map and the half-vector m
 theta_h (inverse CDF s = u^(alpha / (2 alpha + 1)) of s = sin theta_h, reflected)."""
 import numpy as np
 
-from ..quadrature import INV_PI, cosine_map, direction, dot, hemisphere_integral, normalize, reflect
+from ..quadrature import cosine_map, direction, dot, hemisphere_integral, normalize, reflect
 from . import Reference
 
 FIT = np.array([[21.5473, 3.82987, 0.19823, -1.97760, -4.32054],    # at (1 - alpha)^2 = 0
@@ -71,4 +71,3 @@ class CharlieReference(Reference):
 
 
 REFERENCES = {"charlie": CharlieReference}
-__all__ = ["REFERENCES", "INV_PI"]
