@@ -20,6 +20,7 @@ KNOWN_FAILURES = {
     # E = 12.89 at mu = 1e-3 by the float64 reference's quadrature (kernel 12.87 +- 0.03): with
     # the default c = 1e-7, k = 30 Bagher's G1 is 0.999999 at grazing, so f ~ 1 / cos_o
     "sgd_bagher": {"energy"},
+    "charlie": {"energy"},         # E = 1.063 at mu = 1e-6: the sheen lobe gains at grazing
 }
 
 

@@ -412,20 +412,25 @@ def test_example_program_returns_the_lost_energy(tmp_path):
 
 
 def test_target_stderr_refines_only_the_cells_that_need_it():
-    """Every cell ends at or below the target or at the cap; cells already below it keep the
-    base count; the refined estimates agree with direct estimates at 2^20 samples (5 combined
-    standard errors); E_avg is refined the same way."""
+    """Every cell ends with its standard error and resolution (ln(1000) E / N, what N samples
+    cannot see) within the target, or at the cap; cells already within it keep the base count;
+    the refined estimates agree with direct estimates at 2^20 samples (5 combined standard
+    errors plus both resolutions); E_avg is refined the same way."""
+    from clbrdf.check import _resolution
     axes = {"mu": [0.02, 0.3, 1.0], "r": [0.1, 0.6, 1.0]}
-    t = clbrdf.albedo_table("ggx", axes, samples=1 << 10, target_stderr=3e-4,
-                            max_samples=1 << 16)
+    base, cap, target = 1 << 12, 1 << 18, 2.5e-3
+    t = clbrdf.albedo_table("ggx", axes, samples=base, target_stderr=target, max_samples=cap)
     n, s = t["E_samples"], t["E_stderr"]
-    assert np.all((s <= 3e-4) | (n == 1 << 16)), (s, n)
-    assert n.min() == 1 << 10 and n.max() > 1 << 10
+    eff = np.hypot(s, _resolution(t["E"], n))
+    assert np.all((eff <= target) | (n == cap)), (eff, n)
+    assert n.min() == base and n.max() > base, n
     mu, r = np.meshgrid(axes["mu"], axes["r"], indexing="ij")
     d = clbrdf.albedo(clbrdf.Model("ggx", alpha=r ** 2), mu, samples=1 << 20, seed=5)
-    assert np.all(np.abs(t["E"] - d.albedo) < 5 * np.hypot(s, d.stderr)), (t["E"], d.albedo)
-    assert np.all((t["E_avg_stderr"] <= 3e-4) | (t["E_avg_samples"] == 1 << 16))
-    assert json.loads(t["metadata"])["target_stderr"] == 3e-4
+    slack = 5 * np.hypot(s, d.stderr) + _resolution(t["E"], n) + _resolution(d.albedo, 1 << 20)
+    assert np.all(np.abs(t["E"] - d.albedo) < slack), (t["E"], d.albedo)
+    eff_a = np.hypot(t["E_avg_stderr"], _resolution(t["E_avg"], t["E_avg_samples"]))
+    assert np.all((eff_a <= target) | (t["E_avg_samples"] == cap))
+    assert json.loads(t["metadata"])["target_stderr"] == target
     with pytest.raises(clbrdf.ParameterError, match="max_samples is the cap"):
         clbrdf.albedo_table("ggx", axes, samples=64, max_samples=128)
     with pytest.raises(clbrdf.ParameterError, match="target_stderr=0"):
