@@ -362,7 +362,7 @@ def cmd_furnace(args) -> int:
         return 0
     kc = "kulla_conty" in r
     print(f"white furnace of {path.name}: albedo before and after compensation "
-          f"({args.samples} samples per E_ss)")
+          f"({args.samples} Sobol samples per E_ss)")
     print(f"{'r':>5} {'mu':>5} {'E_ss':>9} {'+-':>8} {'Turquin':>9}" + (f" {'Kulla-Conty':>12}" if kc else ""))
     for idx in np.ndindex(r["r"].shape):
         line = (f"{r['r'][idx]:5.2f} {r['mu'][idx]:5.2f} {r['E_ss'][idx]:9.6f} "

@@ -196,11 +196,11 @@ def _read(t, **coords):
 
 
 def white_furnace(tables: dict, *, r=(0.1, 0.25, 0.5, 0.75, 1.0), mu=(0.05, 0.2, 0.5, 1.0),
-                  samples: int = 1 << 20, seed: int = 7, **kw) -> dict:
+                  samples: int = 1 << 20, seed: int = 7, qmc: bool = True, **kw) -> dict:
     """The white furnace of GGX energy compensation with these tables (a layout's E over
     (mu, r) and, for Kulla-Conty, E_avg over r): the single-scattering albedo E_ss(mu, r)
-    estimated directly (``clbrdf.albedo``, the layout's model at alpha = r^2, independent
-    samples) before compensation, and after:
+    estimated directly (``clbrdf.albedo``, the layout's model at alpha = r^2, Sobol points
+    unless qmc=False, independent of the table's) before compensation, and after:
 
     - Turquin 2019 (Cycles, UE, Filament): f = f_ss / E_tab(mu_o), so E = E_ss / E_tab;
     - Kulla & Conty 2017 (OSPRay, OpenPBR): f = f_ss + (1 - E_tab(mu_o)) (1 - E_tab(mu_i)) /
@@ -219,7 +219,7 @@ def white_furnace(tables: dict, *, r=(0.1, 0.25, 0.5, 0.75, 1.0), mu=(0.05, 0.2,
     R, MU = np.meshgrid(np.asarray(r, float), np.asarray(mu, float), indexing="ij")
     m = clbrdf.Model(comp.get("model", "ggx"), alpha=R ** 2, **fixed,
                      **{k: kw.pop(k) for k in ("device", "width", "precision") if k in kw})
-    d = clbrdf.albedo(m, MU, samples=samples, seed=seed, **kw)
+    d = clbrdf.albedo(m, MU, samples=samples, seed=seed, qmc=qmc, **kw)
     e_tab = _read(t, mu=MU, r=R)
     out = {"r": R, "mu": MU, "E_ss": d.albedo, "E_ss_stderr": d.stderr, "E_table": e_tab,
            "turquin": d.albedo / e_tab}
