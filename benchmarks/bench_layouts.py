@@ -108,7 +108,8 @@ def write(rows, layouts, clbrdf):
                 f"values against the double-precision quadrature (tol 1e-8, at most 2^20 "
                 f"evaluations per cell) on every node "
                 f"(tables up to 1024 cells) or every 4th node of each axis. Run: "
-                f"`{' '.join(['python'] + sys.argv)}`.", "",
+                f"`python benchmarks/bench_layouts.py --write` (`--only NAME` re-runs one "
+                f"layout and replaces its rows; last: `{' '.join(['python'] + sys.argv)}`).", "",
                 "| layout | estimator | samples per cell | values | wall s | CPU s | max error | "
                 "max stderr |", "|---|---|---:|---:|---:|---:|---:|---:|"]
         old = RESULTS.read_text()
