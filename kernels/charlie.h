@@ -23,11 +23,22 @@
 
 #define charlie_SAMPLE_DIMS 2
 
-/* D(h) from sin^2 theta_h. */
-inline realN charlie_D(const Params *p, realN sin2)
+/* D(h) from log(sin^2 theta_h): sin^(1/alpha) multiplies the rounding of sin^2 by 1/(2 alpha)
+ * (500 at alpha 1e-3), so the log comes from whichever of sin^2 and cos^2 is small. */
+inline realN charlie_D_log(const Params *p, realN log_sin2)
 {
     realN inv = 1 / p->alpha;
-    return (2 + inv) * pow_pos(sin2, (realN)0.5 * inv) * ((realN)0.5 * INV_PI_R);
+    return (2 + inv) * exp((realN)0.5 * inv * log_sin2) * ((realN)0.5 * INV_PI_R);
+}
+
+/* log(sin^2 theta_h) for h along s (any positive multiple): log1p(-cos^2) where h is near the
+ * horizon (the sheen's lobe; sin^2 near 1 rounded lost 30x the single-precision D there),
+ * log(sin^2) where it is near the normal. */
+inline realN charlie_log_sin2(vec3 s)
+{
+    realN n2 = dot3(s, s);
+    realN sin2 = (sqr(s.x) + sqr(s.y)) / n2, cos2 = sqr(s.z) / n2;
+    return sel(log1p(-cos2), log(sin2), sin2 < (realN)0.5);
 }
 
 inline realN charlie_L(realN x, realN t)
@@ -61,9 +72,8 @@ inline realN charlie_V(const Params *p, realN ci, realN co)
 ALWAYS_INLINE spec charlie_eval(const Params *p, vec3 wo, vec3 wi)
 {
     vec3 s = add3(wi, wo);
-    realN sin2 = (sqr(s.x) + sqr(s.y)) / dot3(s, s);
     maskN ok = (wi.z > 0) & (wo.z > 0);
-    realN lobe = charlie_D(p, sin2) * charlie_V(p, wi.z, wo.z);
+    realN lobe = charlie_D_log(p, charlie_log_sin2(s)) * charlie_V(p, wi.z, wo.z);
     spec f;
     for (int c = 0; c < CHANNELS; ++c)
         f.c[c] = sel((realN)0, p->ks[c] * lobe, ok);
@@ -73,10 +83,8 @@ ALWAYS_INLINE spec charlie_eval(const Params *p, vec3 wo, vec3 wi)
 ALWAYS_INLINE realN charlie_pdf(const Params *p, vec3 wo, vec3 wi)
 {
     vec3 s = add3(wi, wo);
-    realN n2 = dot3(s, s);
-    realN sin2 = (sqr(s.x) + sqr(s.y)) / n2;
-    realN hz = s.z * rsqrt(n2);
-    realN pdf = charlie_D(p, sin2) * hz / (4 * half_cos(wo, wi));
+    realN hz = s.z * rsqrt(dot3(s, s));
+    realN pdf = charlie_D_log(p, charlie_log_sin2(s)) * hz / (4 * half_cos(wo, wi));
     return sel((realN)0, pdf, (wi.z > 0) & (wo.z > 0));
 }
 
@@ -91,7 +99,7 @@ ALWAYS_INLINE BSample charlie_sample(const Params *p, vec3 wo, rand4 u)
     BSample s;
     s.wi = reflect3(wo, h);
     realN oh = dot3(wo, h);
-    s.pdf = charlie_D(p, sn * sn) * hz / (4 * oh);
+    s.pdf = charlie_D_log(p, 2 * lu) * hz / (4 * oh);      /* log sin^2 = 2 k log u1 */
     /* weight f cos_i / pdf = ks V cos_i 4 (wo.h) / h_z, from the drawn h */
     realN g = charlie_V(p, s.wi.z, wo.z) * s.wi.z * 4 * oh / hz;
     for (int ch = 0; ch < CHANNELS; ++ch)

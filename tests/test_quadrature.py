@@ -49,7 +49,8 @@ SHORT = {("low_microfacet", "defaults", "double", 1e-3): 3.4e-7,
          ("sgd_bagher", "defaults", "double", 1e-3): 6e-6,
          ("sgd_bagher", "defaults", "double", 0.02): 2e-6,
          ("sgd_bagher", "defaults", "double", 0.05): 1.6e-6,
-         ("sgd_bagher", "defaults", "double", 0.2): 1.3e-7}
+         ("sgd_bagher", "defaults", "double", 0.2): 1.3e-7,
+         ("charlie", "defaults", "single", 1e-3): 1.4e-6}
 for _k, _e in SHORT.items():
     LIMITS.setdefault(_k, f"2^24 evaluations do not reach tol (estimate {_e:g}; RuntimeWarning)")
 
