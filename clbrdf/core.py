@@ -398,6 +398,47 @@ def albedo_avg(m: Model, *, nodes: int = GAUSS_NODES, phi_nodes: int | None = No
     return (cw * r.albedo).sum(axis=(0, 1)), np.sqrt(((cw * r.stderr) ** 2).sum(axis=(0, 1)))
 
 
+FRESNEL_AVG_NODES = 64
+
+
+def fresnel_avg(name: str = "ggx", *, nodes: int = FRESNEL_AVG_NODES, precision: str = "double",
+                device=None, **params):
+    """F_avg = 2 int_0^1 F(mu) mu dmu, the average Fresnel reflectance of a microfacet model's
+    Fresnel configuration (``fresnel`` with f0, f90, eta, k; per channel in an RGB model), which
+    Kulla-Conty's F_ms and Cycles' and OSPRay's compensation use. F is the kernel's own: read as
+    eval / eval with F = 1 at the mirror pair wo = (sin, 0, mu), wi = (-sin, 0, mu) (h = z,
+    wi.h = mu; D, G and 4 cos_i cos_o cancel), by Gauss-Legendre in mu split at the critical
+    angle (as ``albedo_avg``). Parameters other than the Fresnel ones are not used."""
+    fres = {k: v for k, v in params.items() if k in ("fresnel", "f0", "f90", "eta", "k",
+                                                     "channels")}
+    extra = sorted(set(params) - set(fres))
+    if extra:
+        raise ParameterError(f"fresnel_avg takes the Fresnel parameters (fresnel, f0, f90, eta, "
+                             f"k, channels), not {', '.join(extra)}")
+    m = Model(name, precision=precision, device=device, **fres)
+    if m.options.get("fresnel") is None:
+        raise ParameterError(f"model {name} has no Fresnel term")
+    ones = Model(name, precision=precision, device=device, fresnel="one",
+                 **({"channels": fres["channels"]} if "channels" in fres else {}))
+    pshape = m._shape()
+    kinks = m.spec.mu_kinks(m.config, m.params)
+    if kinks is None:
+        kinks = np.full(pshape + (1,), np.nan)
+    kinks = np.asarray(kinks, dtype=np.float64)
+    kinks = np.broadcast_to(kinks, np.broadcast_shapes(kinks.shape[:-1], pshape) + kinks.shape[-1:])
+    mu, w = _split_rule(nodes, kinks)                      # (n, *pshape)
+    s_t = np.sqrt(np.maximum(0.0, (1 - mu) * (1 + mu)))
+    wo = np.stack([s_t, np.zeros_like(mu), mu], -1)
+    wi = np.stack([-s_t, np.zeros_like(mu), mu], -1)
+    f = np.asarray(m.eval(wo, wi), dtype=np.float64)
+    f1 = np.asarray(ones.eval(wo, wi), dtype=np.float64)
+    if f.ndim > f1.ndim:
+        f1 = f1[..., None]
+    F = f / f1
+    ww = w.reshape(w.shape + (1,) * (F.ndim - w.ndim))
+    return (ww * F).sum(axis=0)
+
+
 def _table_axes(spec, axes, spacing=None) -> list:
     """Validated axes as axis dicts (clbrdf.axes): from a dict name -> 1-D values, axis text or
     an axis dict; named mu or theta (exactly one), phi, r (alpha = r^2, for a model with alpha)

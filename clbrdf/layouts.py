@@ -17,7 +17,7 @@ import numpy as np
 from .spec import ParameterError
 
 CHECK_SAMPLES = 1 << 18   # samples per midpoint of the interpolation check (at most)
-QUANTITIES = ("E", "1-E", "E_avg", "1-E_avg", "A", "B", "A_avg", "B_avg")
+QUANTITIES = ("E", "1-E", "E_avg", "1-E_avg", "A", "B", "A_avg", "B_avg", "F_avg")
 ENCODINGS = ("float32", "float16", "unorm16")
 
 
@@ -105,12 +105,16 @@ def compute_table(model: str, name: str, quantity, axes: list, *, fixed=None, va
     axl = [parse_axis(a) if isinstance(a, str) else dict(a) for a in axes]
     names = [a["name"] for a in axl]
     avg = [q.endswith("_avg") for q in qs]
+    if "F_avg" in qs and len(qs) > 1:
+        raise ParameterError(f"table {name}: F_avg is a table of its own")
     if any(avg) and not all(avg):
         raise ParameterError(f"table {name}: quantities {qs} mix directional and average values")
     if all(avg) and ({"mu", "theta", "phi"} & set(names)):
         raise ParameterError(f"table {name}: an average ({qs[0]}) has no mu, theta or phi axis")
     if not all(avg) and not ({"mu", "theta"} & set(names)):
         raise ParameterError(f"table {name}: {qs[0]} needs a mu or theta axis")
+    if "F_avg" in qs:
+        return _fresnel_table(model, name, qs, axl, fixed, value_range, encoding, layout, kw)
     values, stderr, t = _run(model, axl, qs, fixed, **kw)
     meta = json.loads(t["metadata"])
     clamped = 0
@@ -156,6 +160,30 @@ def table_config(lay: dict, tab: dict) -> tuple:
     model = tab.get("model", lay["model"])
     base = lay.get("fixed", {}) if model == lay["model"] else {}
     return model, {**base, **tab.get("fixed", {})}
+
+
+def _fresnel_table(model, name, qs, axl, fixed, value_range, encoding, layout, kw):
+    """F_avg over axes of Fresnel parameters (``clbrdf.core.fresnel_avg``: deterministic, the
+    kernel's own F; stderr 0)."""
+    from .axes import check_form, evaluated
+    from .core import fresnel_avg
+    from .table import Table
+    axl = [check_form(a) for a in axl]
+    bad = [a["name"] for a in axl if a["name"] not in ("f0", "f90", "eta", "k")]
+    if bad:
+        raise ParameterError(f"table {name}: F_avg has axes of Fresnel parameters (f0, f90, eta, "
+                             f"k), not {', '.join(bad)}")
+    grids = np.meshgrid(*[evaluated(a) for a in axl], indexing="ij")
+    fres = {k: v for k, v in (fixed or {}).items() if k in ("fresnel", "f0", "f90", "eta", "k")}
+    values = fresnel_avg(model, **fres, **{a["name"]: g for a, g in zip(axl, grids)},
+                         **{k: kw[k] for k in ("device",) if k in kw})
+    if value_range is not None:
+        values = np.clip(values, *value_range)
+    meta = {"name": name, "quantity": qs, "encoding": encoding, "range": value_range,
+            "layout": layout, "computed": {"model": model, "fixed": fres,
+                                           "F_avg": "2 int F(mu) mu dmu by clbrdf.fresnel_avg"}}
+    return Table(name=name, axes=axl, quantity=qs, raw=encode(values, encoding),
+                 stderr=np.zeros_like(values), encoding=encoding, meta=meta)
 
 
 def make_layout(name: str, *, samples=None, estimator=None, progress=False, command=None, **kw):
