@@ -57,7 +57,8 @@ def main():
     ap.add_argument("--only", nargs="*")
     a = ap.parse_args()
     import clbrdf
-    from clbrdf.layouts import compute_table, layouts, make_layout, table_config
+    from clbrdf.axes import parse_axis
+    from clbrdf.layouts import layout_table, layouts, make_layout
     warnings.simplefilter("ignore")
     rows = []
     for name, lay in layouts().items():
@@ -73,11 +74,15 @@ def main():
         for tab in lay["tables"]:
             t = runs["brdf"][2][tab["name"]]
             axes, idx = subgrid(t)
-            model, fixed = table_config(lay, tab)
-            r = compute_table(model, "ref", tab["quantity"], axes, fixed=fixed,
-                              value_range=tab.get("range"), estimator="quadrature",
-                              precision="double", tol=1e-8, max_evals=REF_MAX_EVALS,
-                              check_interpolation=False)
+            sub = dict(tab, axes=axes, quantity=[
+                dict(q, axes=[dict(a, **({"min": m} if m is not None else {}))
+                              for a, m in zip(axes, [parse_axis(x).get("min") if isinstance(
+                                  x, str) else x.get("min") for x in q["axes"]])])
+                if isinstance(q, dict) and "axes" in q else q
+                for q in (tab["quantity"] if isinstance(tab["quantity"], list)
+                          else [tab["quantity"]])])
+            r = layout_table(lay, sub, estimator="quadrature", precision="double", tol=1e-8,
+                             max_evals=REF_MAX_EVALS, check_interpolation=False)
             refs[tab["name"]] = (r.values, np.ix_(*idx))
         t_ref = time.perf_counter() - t_ref
         for label, (w, c, tables) in runs.items():

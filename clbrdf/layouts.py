@@ -186,6 +186,53 @@ def _fresnel_table(model, name, qs, axl, fixed, value_range, encoding, layout, k
                  stderr=np.zeros_like(values), encoding=encoding, meta=meta)
 
 
+def layout_table(lay: dict, tab: dict, *, layout: str | None = None, **kw):
+    """One table of a layout. Its quantity is a name, a list of names (channels of one
+    computation), or a list whose entries may be dicts {"quantity", "label", "model", "fixed",
+    "axes", "estimator"}: a channel of another model on the same grid (Filament's cloth channel is the
+    Charlie sheen beside GGX's B and E), computed apart and interleaved."""
+    model, fixed = table_config(lay, tab)
+    qs = tab["quantity"] if isinstance(tab["quantity"], list) else [tab["quantity"]]
+    common = dict(value_range=tab.get("range"), encoding=lay.get("encoding", "float32"),
+                  layout=layout, **kw)
+    plain = [q for q in qs if isinstance(q, str)]
+    parts = []                      # (labels, Table) in channel order
+    if plain:
+        parts.append((plain, compute_table(model, tab["name"], plain, tab["axes"], fixed=fixed,
+                                           **common)))
+    for q in qs:
+        if isinstance(q, dict):
+            own = dict(common, **{k: q[k] for k in ("estimator",) if k in q})
+            t = compute_table(q.get("model", model), tab["name"], q["quantity"],
+                              q.get("axes", tab["axes"]), fixed=q.get("fixed", {}), **own)
+            parts.append(([q.get("label", q["quantity"])], t))
+    if len(parts) == 1 and plain:
+        return parts[0][1]
+    # interleave: the channels in the order given
+    order = [q if isinstance(q, str) else q.get("label", q["quantity"]) for q in qs]
+    chans, errs, info = {}, {}, []
+    base = parts[0][1]
+    for labels, t in parts:
+        if t.shape != base.shape or any(
+                not np.allclose(a["values"], b["values"]) for a, b in zip(t.axes, base.axes)):
+            raise ParameterError(f"table {tab['name']}: channel {labels} is on another grid")
+        raw = t.raw if len(labels) > 1 else t.raw[..., None]
+        err = t.stderr if len(labels) > 1 else t.stderr[..., None]
+        for i, lab in enumerate(labels):
+            chans[lab], errs[lab] = raw[..., i], err[..., i]
+        info.append({"channels": labels, "computed": t.meta.get("computed"),
+                     "interpolation": t.meta.get("interpolation")})
+    from .table import Table
+    interp = [i["interpolation"] for i in info if i["interpolation"]]
+    meta = dict(base.meta, quantity=order, parts=info)
+    if interp:
+        meta["interpolation"] = max(interp, key=lambda i: i["max_error"])
+    return Table(name=tab["name"], axes=base.axes, quantity=order,
+                 raw=np.stack([chans[q] for q in order], -1),
+                 stderr=np.stack([errs[q] for q in order], -1), encoding=base.encoding,
+                 meta=meta)
+
+
 def make_layout(name: str, *, samples=None, estimator=None, progress=False, command=None, **kw):
     """Every table of layout ``name`` (clbrdf/data/layouts.json) at the layout's published sample
     count unless ``samples`` is given; returns {table name: Table}."""
@@ -194,11 +241,8 @@ def make_layout(name: str, *, samples=None, estimator=None, progress=False, comm
     estimator = "brdf" if estimator is None else estimator
     out = {}
     for tab in lay["tables"]:
-        model, fixed = table_config(lay, tab)
-        t = compute_table(model, tab["name"], tab["quantity"], tab["axes"], fixed=fixed,
-                          value_range=tab.get("range"), encoding=lay.get("encoding", "float32"),
-                          layout=name, samples=samples, estimator=estimator, progress=progress,
-                          command=command, **kw)
+        t = layout_table(lay, tab, layout=name, samples=samples, estimator=estimator,
+                         progress=progress, command=command, **kw)
         t.meta.update({"consumer": lay["consumer"], "source": lay["source"],
                        "notes": lay.get("notes", ""),
                        "published_samples": lay.get("samples")})
