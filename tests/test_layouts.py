@@ -517,3 +517,22 @@ def test_fresnel_average():
     assert abs(fit / clbrdf.fresnel_avg(fresnel="dielectric", eta=1.5) - 0.975) < 0.003
     with pytest.raises(clbrdf.ParameterError, match="not alpha"):
         clbrdf.fresnel_avg(alpha=0.3, eta=1.5)
+
+
+def test_cli_furnace_and_its_refusals(tmp_path):
+    r = run_inprocess("table", "--layout", "cycles", "-n", "1024", "--out", tmp_path / "c.npz",
+                      "--out", tmp_path / "c.h")
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "c.npz").exists() and (tmp_path / "c.h").exists()
+    r = run_inprocess("furnace", tmp_path / "c.npz", "-n", "4096", "--json")
+    assert r.returncode == 0, r.stderr
+    f = json.loads(r.stdout)
+    assert len(f["turquin"]) == 5 and np.all(np.abs(np.array(f["kulla_conty"]) - 1) < 0.02)
+    run_inprocess("table", "--layout", "threejs", "-n", "64", "--out", tmp_path / "t.npz")
+    for argv, msg in [(("furnace", tmp_path / "t.npz"), "needs a table of E or 1-E"),
+                      (("furnace", tmp_path / "none.npz"), "does not exist"),
+                      (("furnace", tmp_path / "c.h"), "tables load from .npz or .exr"),
+                      (("table", "--layout", "cycles", "--out", tmp_path / "no" / "c.h"),
+                       "does not exist")]:
+        r = run_inprocess(*argv)
+        assert r.returncode != 0 and msg in r.stderr, (argv, r.stderr)
