@@ -411,8 +411,10 @@ def _layout_table(args, outs) -> int:
     for name, t in tables.items():
         print(f"{name}: {', '.join(t.quantity)} {' x '.join(str(n) for n in t.shape)} "
               f"({t.encoding}), largest stderr {float(t.stderr.max()):.2g}")
-    print(f"layout {args.layout}: {samples} samples per cell, {est}"
-          f"{' + qmc' if args.qmc else ''}, {seconds:.1f} s; wrote {', '.join(map(str, written))}")
+    how = (f"quadrature (tol {next(iter(tables.values())).meta['computed'].get('tol')})"
+           if est == "quadrature" else
+           f"{samples} samples per cell, {est}{' + qmc' if args.qmc else ''}")
+    print(f"layout {args.layout}: {how}, {seconds:.1f} s; wrote {', '.join(map(str, written))}")
     if why:
         print(f"(no --estimator: {why})")
     return 0
