@@ -536,3 +536,10 @@ def test_cli_furnace_and_its_refusals(tmp_path):
                        "does not exist")]:
         r = run_inprocess(*argv)
         assert r.returncode != 0 and msg in r.stderr, (argv, r.stderr)
+
+
+def test_cli_lists_the_layouts():
+    r = run_inprocess("layouts")
+    assert r.returncode == 0 and all(f"{n}:" in r.stdout for n in layouts())
+    r = run_inprocess("layouts", "--json")
+    assert json.loads(r.stdout).keys() == layouts().keys()
