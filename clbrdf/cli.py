@@ -382,7 +382,9 @@ def cmd_layouts(args) -> int:
     for name, lay in all_.items():
         print(f"{name}: {lay['consumer']}")
         for t in lay["tables"]:
-            q = t["quantity"] if isinstance(t["quantity"], str) else ", ".join(t["quantity"])
+            q = t["quantity"] if isinstance(t["quantity"], str) else ", ".join(
+                x if isinstance(x, str) else f"{x.get('label', x['quantity'])} ({x['model']})"
+                for x in t["quantity"])
             print(f"    {t['name']}: {q} over {' x '.join(t['axes'])} "
                   f"({lay.get('encoding', 'float32')})")
         print(f"    source: {lay['source']}")
