@@ -58,7 +58,7 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-RESULTS = HERE / "RESULTS.md"
+from results import RESULTS, write_section  # noqa: E402
 BEGIN = "<!-- bench_albedo:begin -->"
 END = "<!-- bench_albedo:end -->"
 LLVM19 = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so"
@@ -610,13 +610,7 @@ def machine_info(args, rows, mitsuba_versions):
 def write_results(text, command, date):
     section = f"{BEGIN}\n## GGX directional albedo throughput (`benchmarks/bench_albedo.py`)\n\n" \
               f"Date: {date}. Command: `{command}`\n\n{text}\n{END}\n"
-    old = RESULTS.read_text() if RESULTS.exists() else "# Benchmark results\n\n"
-    if BEGIN in old and END in old:
-        i, j = old.index(BEGIN), old.index(END) + len(END)
-        new = old[:i] + section.rstrip("\n") + old[j:]
-    else:
-        new = old.rstrip("\n") + "\n\n" + section
-    RESULTS.write_text(new)
+    write_section(BEGIN, END, section)
 
 
 # --------------------------------------------------------------------------------------------

@@ -13,28 +13,15 @@ Times are wall and CPU seconds of make_layout without the interpolation check, m
 """
 import argparse
 import datetime as _dt
-import statistics
 import sys
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 
-HERE = Path(__file__).resolve().parent
-RESULTS = HERE / "RESULTS.md"
+from results import RESULTS, timed, write_section
 BEGIN, END = "<!-- bench_layouts:begin -->", "<!-- bench_layouts:end -->"
 REF_MAX_EVALS = 1 << 20   # per cell: near a critical angle (eta < 1, small r) tol 1e-8 needs more
-
-
-def timed(fn, rounds):
-    ws, cs, out = [], [], None
-    for _ in range(rounds):
-        t, c = time.perf_counter(), time.process_time()
-        out = fn()
-        ws.append(time.perf_counter() - t)
-        cs.append(time.process_time() - c)
-    return statistics.median(ws), statistics.median(cs), out
 
 
 def subgrid(t):
@@ -117,7 +104,7 @@ def write(rows, layouts, clbrdf):
                 f"layout and replaces its rows; last: `{' '.join(['python'] + sys.argv)}`).", "",
                 "| layout | estimator | samples per cell | values | wall s | CPU s | max error | "
                 "max stderr |", "|---|---|---:|---:|---:|---:|---:|---:|"]
-        old = RESULTS.read_text()
+        old = RESULTS.read_text() if RESULTS.exists() else ""
         kept = []          # rows of layouts not run this time (--only) stay
         if BEGIN in old:
             for line in old[old.index(BEGIN):old.index(END)].splitlines():
@@ -125,17 +112,13 @@ def write(rows, layouts, clbrdf):
                 if line.startswith("| ") and len(cells_) == 8 and cells_[0] in layouts() \
                         and cells_[0] not in {r[0] for r in rows}:
                     kept.append(line)
-        text += kept
         for name, label, n, cells, w, c, e, s in rows:
-            text.append(f"| {name} | {label} | {n} | {cells} | {w:.2f} | {c:.2f} | {e:.1e} | "
+            kept.append(f"| {name} | {label} | {n} | {cells} | {w:.2f} | {c:.2f} | {e:.1e} | "
                         f"{s:.1e} |")
+        order = list(layouts())          # rows in the layouts' order, stably
+        text += sorted(kept, key=lambda line: order.index(line.split("|")[1].strip()))
         text.append(END)
-        block = "\n".join(text)
-        if BEGIN in old:
-            old = old[:old.index(BEGIN)] + block + old[old.index(END) + len(END):]
-        else:
-            old = old.rstrip("\n") + "\n\n" + block + "\n"
-        RESULTS.write_text(old)
+        write_section(BEGIN, END, "\n".join(text))
 
 
 if __name__ == "__main__":

@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_albedo import RESULTS, cpu_flags, cpu_model, git_commit, mem_total_gib  # noqa: E402
+from bench_albedo import cpu_flags, cpu_model, git_commit, mem_total_gib  # noqa: E402
+from results import write_section  # noqa: E402
 
 BEGIN = "<!-- bench_sample_counts:begin -->"
 END = "<!-- bench_sample_counts:end -->"
@@ -65,12 +66,7 @@ def main(argv=None):
         date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
         section = (f"{BEGIN}\n## Throughput against samples per point (`benchmarks/bench_sample_counts.py`)\n\n"
                    f"Date: {date}. Command: `python benchmarks/bench_sample_counts.py --write`\n\n{text}{END}")
-        old = RESULTS.read_text()
-        if BEGIN in old and END in old:
-            new = old[:old.index(BEGIN)] + section + old[old.index(END) + len(END):]
-        else:
-            new = old.rstrip("\n") + "\n\n" + section + "\n"
-        RESULTS.write_text(new)
+        write_section(BEGIN, END, section)
 
 
 if __name__ == "__main__":

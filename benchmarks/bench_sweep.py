@@ -22,7 +22,6 @@ import argparse
 import datetime as _dt
 import os
 import platform
-import resource
 import shutil
 import statistics
 import subprocess
@@ -34,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-RESULTS = HERE / "RESULTS.md"
+from results import write_section  # noqa: E402
 BEGIN, END = "<!-- bench_sweep:begin -->", "<!-- bench_sweep:end -->"
 
 
@@ -48,10 +47,7 @@ def cpu_name():
     return platform.processor()
 
 
-def timed(fn):
-    t, c = time.perf_counter(), time.process_time()
-    out = fn()
-    return time.perf_counter() - t, time.process_time() - c, out
+from results import timed  # noqa: E402
 
 
 def overhead(tmp, rounds, points, samples):
@@ -215,12 +211,7 @@ def main():
             f"{' --write' if a.write else ''}`", ""]
     text = "\n".join(head + lines + [END])
     if a.write:
-        old = RESULTS.read_text()
-        if BEGIN in old:
-            old = old[:old.index(BEGIN)] + text + old[old.index(END) + len(END):]
-        else:
-            old = old.rstrip() + "\n\n" + text + "\n"
-        RESULTS.write_text(old)
+        write_section(BEGIN, END, text)
 
 
 if __name__ == "__main__":

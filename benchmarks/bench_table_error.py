@@ -16,29 +16,16 @@ quadrature's times are the median of --rounds runs; wall and CPU seconds side by
 import argparse
 import datetime as _dt
 import os
-import statistics
 import sys
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 
-HERE = Path(__file__).resolve().parent
-RESULTS = HERE / "RESULTS.md"
+from results import timed, write_section  # noqa: E402
 BEGIN, END = "<!-- bench_table_error:begin -->", "<!-- bench_table_error:end -->"
 TARGETS = (1e-4, 1e-5, 1e-6)
 MAX_LOG2 = 20
-
-
-def timed(fn, rounds):
-    ws, cs, out = [], [], None
-    for _ in range(rounds):
-        t, c = time.perf_counter(), time.process_time()
-        out = fn()
-        ws.append(time.perf_counter() - t)
-        cs.append(time.process_time() - c)
-    return statistics.median(ws), statistics.median(cs), out
 
 
 def main():
@@ -113,13 +100,7 @@ def main():
         section = (f"{BEGIN}\n## 32 x 32 GGX table at a target error (`benchmarks/bench_table_error.py`)"
                    f"\n\nDate: {date}. Command: `python benchmarks/bench_table_error.py --write`\n\n"
                    f"{text}\n{END}\n")
-        old = RESULTS.read_text()
-        if BEGIN in old:
-            i, j = old.index(BEGIN), old.index(END) + len(END)
-            new = old[:i] + section.rstrip("\n") + old[j:]
-        else:
-            new = old.rstrip("\n") + "\n\n" + section
-        RESULTS.write_text(new)
+        write_section(BEGIN, END, section)
 
 
 if __name__ == "__main__":

@@ -794,8 +794,14 @@ def build_parser() -> argparse.ArgumentParser:
     dev.add_argument("--device", metavar="SELECTOR", default=None, help=DEVICE_HELP)
     models = ", ".join(MODELS)
 
-    def model_arg(p):
-        p.add_argument("model", metavar="MODEL", help=f"one of {models}")
+    def model_arg(p, optional: str | None = None):
+        """MODEL (optional, with the help's reason, where another argument can name it),
+        --param and --preset."""
+        if optional:
+            p.add_argument("model", metavar="MODEL", nargs="?",
+                           help=f"one of {models} ({optional})")
+        else:
+            p.add_argument("model", metavar="MODEL", help=f"one of {models}")
         p.add_argument("--param", "-p", action="append", default=[], metavar="NAME=VALUE",
                        help="a parameter (alpha=0.3) or option (masking=vcavity); repeat for "
                             "several; see 'clbrdf models'")
@@ -874,14 +880,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "--layout NAME writes a renderer's tables exactly in its layout "
                                    "(axes, mapping, quantity, placement, encoding) to .h, .npz or "
                                    ".exr; 'clbrdf layouts' lists them.")
-    p.add_argument("model", metavar="MODEL", nargs="?",
-                   help=f"one of {models} (not with --layout: the layout names it)")
-    p.add_argument("--param", "-p", action="append", default=[], metavar="NAME=VALUE",
-                   help="a parameter (alpha=0.3) or option (masking=vcavity); repeat for "
-                        "several; see 'clbrdf models'")
-    p.add_argument("--preset", metavar="MATERIAL[:SOURCE]",
-                   help="a published fit of MODEL to a MERL material (RGB), e.g. alum-bronze; "
-                        "--param values override it; see 'clbrdf models --presets'")
+    model_arg(p, "not with --layout: the layout names it")
     p.add_argument("--layout", choices=sorted(_layouts()), default=None,
                    help="a renderer's tables in its layout (default samples: the layout's "
                         "published count)")
@@ -928,11 +927,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "(docs/sweeps.md states the rule and its error rate). Chunks are "
                                    "written as they finish; Ctrl-C or SIGTERM stops after the "
                                    "chunks in progress; --resume continues.")
-    p.add_argument("model", metavar="MODEL", nargs="?",
-                   help=f"one of {models} (may be left out with --resume: the store's own job)")
-    p.add_argument("--param", "-p", action="append", default=[], metavar="NAME=VALUE",
-                   help="a fixed parameter or option; repeat for several")
-    p.add_argument("--preset", metavar="MATERIAL[:SOURCE]", help="a published fit (RGB)")
+    model_arg(p, "may be left out with --resume: the store's own job")
     p.add_argument("--axis", action="append", default=[], metavar="NAME=START:STOP:COUNT[:SPACING]",
                    help="a grid axis over a parameter (SPACING lin, log or sqrt), or NAME=v1,v2,...; "
                         "with --random: NAME=START:STOP[:SPACING]; repeat for each axis")

@@ -199,8 +199,11 @@ def _exr_bytes(tables: dict, path: Path) -> bytes:
                   "clbrdf": json.dumps({"format": FORMAT, "table": t.to_json(),
                                         "axes_values": {a["name"]: a["values"] for a in t.axes}})}
         parts.append(OpenEXR.Part(header, chans, name))
-    # OpenEXR writes to a path: a temporary name beside the target, read back as bytes
-    tmp = path.with_name(f".{path.name}.exr-staging.exr")
+    # OpenEXR writes to a path: a temporary name beside the target (.NAME.PID.*.tmp, which a
+    # later write removes if this process was killed: tables.remove_stale), read back as bytes
+    from .tables import _tmp_prefix, remove_stale
+    remove_stale(path)
+    tmp = path.with_name(_tmp_prefix(path) + "exr-staging.tmp")
     try:
         OpenEXR.File(parts).write(str(tmp))
         return tmp.read_bytes()
