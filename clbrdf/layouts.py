@@ -17,7 +17,9 @@ import numpy as np
 from .spec import ParameterError
 
 CHECK_SAMPLES = 1 << 18   # samples per midpoint of the interpolation check (at most)
-QUANTITIES = ("E", "1-E", "E_avg", "1-E_avg", "A", "B", "A_avg", "B_avg", "F_avg")
+QUANTITIES = ("E", "1-E", "E_avg", "1-E_avg", "A", "B", "A_avg", "B_avg", "F_avg", "E_kc", "1-E_kc",
+              "E_kc_avg", "1-E_kc_avg")
+FRESNEL_AXES = ("f0", "f90", "eta", "k")
 ENCODINGS = ("float32", "float16", "unorm16")
 
 
@@ -65,6 +67,11 @@ def _run(model, axl, qs, fixed, **kw):
     last when there are several quantities."""
     from .core import albedo_table
     names = [a["name"] for a in axl]
+    kc = ["_kc" in q for q in qs]
+    if any(kc):
+        if not all(kc) or len(qs) > 1:
+            raise ParameterError(f"quantities {qs}: E_kc is a table of its own")
+        return _run_kc(model, axl, qs[0], fixed, **kw)
     avg = qs[0].endswith("_avg")
     split = any(q.removeprefix("1-").split("_")[0] in ("A", "B") for q in qs)
     t_axes = {a["name"]: a for a in axl}
@@ -85,6 +92,67 @@ def _run(model, axl, qs, fixed, **kw):
         errs.append(s)
     stack = (lambda x: np.stack(x, -1)) if len(qs) > 1 else (lambda x: x[0])
     return stack(chans), stack(errs), t
+
+
+def _expand(arr, have, names):
+    """arr over the axes ``have`` (a subsequence of ``names``, in that order) reshaped to
+    broadcast over ``names``."""
+    dims = iter(np.shape(arr))
+    return np.reshape(arr, [next(dims) if a["name"] in have else 1 for a in names])
+
+
+def _run_kc(model, axl, q, fixed, **kw):
+    """E_kc(mu) = E_F(mu) + F_ms (1 - E(mu)): the albedo of a microfacet lobe with its Fresnel
+    F plus Kulla-Conty's multiple-scattering lobe (1 - E(mu_o))(1 - E(mu_i)) / (pi (1 - E_avg))
+    weighted by F_ms = F_avg^2 E_avg / (1 - F_avg (1 - E_avg)) (Kulla & Conty 2017; Enterprise
+    PBR's Base_E). The MS lobe's albedo at mu is 1 - E(mu) exactly (its cosine-weighted integral
+    over wi is (1 - E(mu)) (1 - E_avg) / (1 - E_avg)). E and E_avg are the lobe's with F = 1 over
+    the axes other than the Fresnel ones (f0, f90, eta, k); F_avg is the kernel's own
+    (``clbrdf.core.fresnel_avg``). E_kc_avg is the same with E_F_avg and E_avg for E_F and E.
+    The stderr adds the three estimates' in quadrature (first order; E_F and E share seeds and
+    correlate positively, so it is an upper bound)."""
+    from .axes import check_form, evaluated
+    from .core import fresnel_avg
+    avg = q.endswith("_avg")
+    plain = "E_avg" if avg else "E"
+    fixed = dict(fixed or {})
+    names = [a["name"] for a in axl]
+    fres = [a for a in axl if a["name"] in FRESNEL_AXES]
+    rest = [a for a in axl if a["name"] not in FRESNEL_AXES]
+    one = {k: v for k, v in fixed.items() if k not in FRESNEL_AXES and k != "fresnel"}
+    one["fresnel"] = "one"
+    vF, sF, t = _run(model, axl, [plain], fixed, **kw)
+    v1, s1, _ = _run(model, rest, [plain], one, **kw) if rest else _run(
+        model, [], [plain], one, **kw)
+    keep = [a for a in rest if a["name"] not in ("mu", "theta")]
+    if avg:
+        va, sa = v1, s1
+    else:
+        va, sa, _ = _run(model, keep, ["E_avg"], one, **kw)
+    fa_axes = [check_form(a) for a in fres]
+    grids = np.meshgrid(*[evaluated(a) for a in fa_axes], indexing="ij")
+    fres_fixed = {k: v for k, v in fixed.items() if k in FRESNEL_AXES + ("fresnel",)}
+    Fa = fresnel_avg(model, **fres_fixed, **{a["name"]: g for a, g in zip(fa_axes, grids)},
+                     **{k: kw[k] for k in ("device",) if k in kw})
+    if np.ndim(Fa) > len(fa_axes):
+        raise ParameterError(f"{q} of an RGB model has a channel axis; give a single-channel "
+                             f"configuration")
+    fn = [a["name"] for a in fres]
+    v1, s1 = (_expand(x, [a["name"] for a in rest], axl) for x in (v1, s1))
+    va, sa = (_expand(x, [a["name"] for a in keep], axl) for x in (va, sa))
+    Fa = _expand(Fa, fn, axl)
+    den = 1 - Fa * (1 - va)
+    Fms = Fa ** 2 * va / den
+    values = vF + Fms * (1 - v1)
+    dFms = Fa ** 2 * (1 - Fa) / den ** 2
+    stderr = np.sqrt(sF ** 2 + (Fms * s1) ** 2 + ((1 - v1) * dFms * sa) ** 2)
+    values, stderr = np.broadcast_to(values, vF.shape), np.broadcast_to(stderr, vF.shape)
+    if q.startswith("1-"):
+        values = 1 - values
+    meta = json.loads(t["metadata"])
+    meta["quantity"] = {q: "E_F + F_ms (1 - E), F_ms = F_avg^2 E_avg / (1 - F_avg (1 - E_avg)); "
+                           "E, E_avg with F = 1; F_avg by clbrdf.fresnel_avg (Kulla-Conty)"}
+    return np.array(values), np.array(stderr), dict(t, metadata=json.dumps(meta))
 
 
 def compute_table(model: str, name: str, quantity, axes: list, *, fixed=None, value_range=None,

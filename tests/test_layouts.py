@@ -181,6 +181,67 @@ def test_enterprise_tables_are_texel_centred():
     assert min(rms_s, key=rms_s.get) == ("alpha", "centres", "centres"), rms_s
 
 
+def test_enterprise_base_e_is_kulla_conty_with_schlick_fresnel():
+    """Enterprise PBR's Base_E[f0][r][mu] and Base_E_avg[f0][r] (res/pbrlut.hpp, CC BY-SA): the
+    layout's E_kc tables (GGX with F(f0, 1) plus Kulla-Conty's multiple-scattering lobe weighted
+    by F_ms) differ from them by their noise, as GGX_E does (rms below 2.5e-3; averages 1e-3);
+    weighting the lobe by F_avg alone, the other reading of the spec, is 20x further off."""
+    lay = get_layout("enterprise-pbr")
+    tabs = {t["name"]: t for t in lay["tables"]}
+    base = layout_table(lay, tabs["Base_E"], samples=1 << 16, qmc=True, check_interpolation=False)
+    ref = _enterprise("Base_E", (16, 16, 16))
+    d = base.values - ref
+    assert np.sqrt(np.mean(d ** 2)) < 2.5e-3, np.sqrt(np.mean(d ** 2))
+    avg = layout_table(lay, tabs["Base_E_avg"], samples=1 << 16, qmc=True,
+                       check_interpolation=False)
+    da = avg.values - _enterprise("Base_E_avg", (16, 16))
+    assert np.sqrt(np.mean(da ** 2)) < 1e-3, np.sqrt(np.mean(da ** 2))
+    # the other reading: E_F + F_avg (1 - E), from the same run's pieces
+    f0 = np.asarray(base.axes[0]["values"])[:, None, None]
+    e_f = compute_table("ggx", "EF", "E", tabs["Base_E"]["axes"], samples=1 << 16, qmc=True,
+                        fixed={"masking": "correlated", "fresnel": "schlick"},
+                        check_interpolation=False).values
+    e_1 = compute_table("ggx", "E1", "E", tabs["Base_E"]["axes"][1:], samples=1 << 16, qmc=True,
+                        fixed=lay["fixed"], check_interpolation=False).values
+    other = e_f + (20 * f0 + 1) / 21 * (1 - e_1)
+    assert np.sqrt(np.mean((other - ref) ** 2)) > 20 * np.sqrt(np.mean(d ** 2))
+
+
+@pytest.mark.parametrize("fixed", [{"fresnel": "schlick", "f0": 0.3},
+                                   {"fresnel": "dielectric", "eta": 1.5}])
+def test_kulla_conty_albedo_against_the_reference(fixed):
+    """E_kc = E_F + F_ms (1 - E) with F_ms = F_avg^2 E_avg / (1 - F_avg (1 - E_avg)), each piece
+    from the float64 reference by quadrature (E_avg: 24-node Gauss-Legendre in mu; F_avg:
+    Schlick's closed form or a fine trapezoid rule of the reference Fresnel), within 5 combined
+    standard errors plus the Gauss rule's 1e-6. With F = 1 (f0 = 1) E_kc is 1: the
+    compensation conserves energy exactly."""
+    from clbrdf.ref import reference
+    from clbrdf.ref.microfacet import fresnel
+    r, mus = [0.4, 0.8], [0.2, 0.7]
+    axes = [f"r={r[0]},{r[1]}", f"mu={mus[0]},{mus[1]}"]
+    t = compute_table("ggx", "K", "E_kc", axes, fixed=fixed, samples=1 << 18,
+                      check_interpolation=False)
+    x, w = np.polynomial.legendre.leggauss(24)
+    x, w = (x + 1) / 2, w / 2
+    if fixed["fresnel"] == "schlick":
+        f_avg = (20 * fixed["f0"] + 1) / 21
+    else:
+        g = np.linspace(0, 1, 200001)
+        f_avg = 2 * np.trapezoid(fresnel("dielectric", g, eta=fixed["eta"]) * g, g)
+    for i, rr in enumerate(r):
+        one = reference("ggx", alpha=rr * rr)
+        e = [one.albedo(m)[0] for m in mus]
+        e_avg = 2 * sum(wk * xk * one.albedo(xk)[0] for xk, wk in zip(x, w))
+        f_ms = f_avg ** 2 * e_avg / (1 - f_avg * (1 - e_avg))
+        withf = reference("ggx", alpha=rr * rr, **fixed)
+        for j, m in enumerate(mus):
+            want = withf.albedo(m)[0] + f_ms * (1 - e[j])
+            assert abs(t.values[i, j] - want) < 5 * t.stderr[i, j] + 1e-6, (rr, m, t.values[i, j], want)
+    unit = compute_table("ggx", "K1", "E_kc", ["f0=1", "r=0.1,0.5,1", "mu=0.05,0.5,1"],
+                         fixed={"fresnel": "schlick"}, samples=1 << 12, check_interpolation=False)
+    assert np.abs(unit.values - 1).max() < 1e-6, unit.values
+
+
 def test_average_splits_at_the_critical_angle():
     """E_avg of a near-mirror dielectric with eta < 1 equals the average Fresnel reflectance
     2 int F mu dmu (a fine trapezoid rule of the float64 reference Fresnel), RGB included."""
