@@ -189,7 +189,12 @@ def _axes(table) -> list[str]:
 
 def _avg_axes(table) -> list[str]:
     """The axes of E_avg: all but mu and phi (channel last for an RGB table)."""
-    return [a for a in _axes(table) if a not in ("mu", "phi")]
+    return [a for a in _axes(table) if a not in ("mu", "theta", "phi")]
+
+
+def _dir_axis(names) -> str:
+    """The axis of the outgoing direction: mu, or theta (mu = cos theta)."""
+    return "mu" if "mu" in names else "theta"
 
 
 def paths_for(out) -> dict:
@@ -300,10 +305,12 @@ def table_figure(table: dict):
     meta = _meta(table)
     names = _axes(table)
     rgb = "channel" in names
-    e_axes = [a for a in names if a not in ("mu", "channel")]      # E's axes besides mu
-    a_axes = [a for a in names if a not in ("mu", "phi", "channel")]
+    d = _dir_axis(names)
+    e_axes = [a for a in names if a not in (d, "channel")]         # E's axes besides mu
+    a_axes = [a for a in names if a not in (d, "phi", "channel")]
     spacing = meta.get("spacing", {})
-    mu = np.asarray(table["mu"], dtype=float)
+    mu = np.asarray(table[d], dtype=float)
+    xlabel = r"$\mu = \cos\theta_o$" if d == "mu" else r"$\theta_o$ (radians)"
     E_all = np.asarray(table["E"], dtype=float)
     S_all = np.asarray(table["E_stderr"], dtype=float)
     A_all = np.asarray(table["E_avg"], dtype=float)
@@ -321,7 +328,7 @@ def table_figure(table: dict):
         E, S = (E_all[..., row], S_all[..., row]) if rgb else (E_all, S_all)
         A, AS = (A_all[..., row], AS_all[..., row]) if rgb else (A_all, AS_all)
         lead = f"channel {CHANNEL_NAMES[row]}: " if rgb else ""
-        order = [names.index("mu")] + [names.index(a) for a in e_axes]
+        order = [names.index(d)] + [names.index(a) for a in e_axes]
         E, S = np.transpose(E, order), np.transpose(S, order)
         while E.ndim > 2:
             E, S = E[..., 0], S[..., 0]
@@ -332,7 +339,7 @@ def table_figure(table: dict):
             ax.plot(mu, E, "o-", ms=3, color="C0", label=r"$E(\mu)$")
             ax.fill_between(mu, E - 2 * S, E + 2 * S, color="C0", alpha=0.25, lw=0)
             ax.axhline(float(A), color="C1", ls="--", label=f"$E_{{avg}}$ = {float(A):.4f}")
-            ax.set_xlabel(r"$\mu = \cos\theta_o$")
+            ax.set_xlabel(xlabel)
             ax.set_ylabel(r"$E(\mu)$")
             ax.set_title(lead.rstrip(": "), fontsize=10)
             ax.set_xlim(0, 1)
@@ -357,7 +364,7 @@ def table_figure(table: dict):
         cb = fig.colorbar(cm.ScalarMappable(norm=norm, cmap=cmap), ax=ax1, pad=0.01)
         cb.set_label(p)
         ax1.legend(fontsize=8, loc="best", ncol=1 if len(pick) <= 4 else 2)
-        ax1.set_xlabel(r"$\mu = \cos\theta_o$")
+        ax1.set_xlabel(xlabel)
         ax1.set_ylabel(r"$E(\mu)$")
         ax1.set_title(f"{lead}$E(\\mu)$ for {len(pick)} of {n} values of {p} "
                       f"(bands: $\\pm 2$ stderr)", fontsize=10)

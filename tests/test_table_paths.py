@@ -28,7 +28,45 @@ CASES = {
                                 "alpha_x": [0.05, 0.5]}, {"alpha_y": 0.8}),
     "schlick-scratch": ("schlick", {"psi": [0.0, 0.5], "mu": [0.3, 0.8], "phi": [0.0, 1.0]},
                         {"p": 0.1, "r": 0.3}),
+    # axis text: texel centres, r (alpha = r^2), theta (mu = cos theta), min=, sqrt spacing
+    "r-theta-centres": ("ggx", {"theta": "0:1.5:3:centres", "r": "0:1:3:centres"}, {}),
+    "nodes-with-min": ("ggx", {"mu": "0:1:3:min=0.05", "r": "0:1:3:min=0.1"}, {}),
+    "sqrt-spacing": ("beckmann", {"mu": "0.1:1:3:sqrt", "alpha": "0.05,0.3"}, {}),
+    # the Fresnel split: A, B and E = A + B as three quantities
+    "split-r": ("ggx", {"r": "0.2:0.9:2", "mu": "0:1:3:centres"}, {"split": True}),
 }
+MODEL_OF = {"r": ("alpha", lambda v: v * v), "theta": ("mu", np.cos)}
+SPLIT_AS = {"A": {"f0": 1.0, "f90": 0.0}, "B": {"f0": 0.0, "f90": 1.0}, "E": {"f0": 1.0, "f90": 1.0}}
+
+
+def axis_values(spec):
+    """(axis values, model values) of an axis as the README states them, written out here
+    independently of clbrdf.axes: t = i / (N - 1) at nodes, (i + 0.5) / N at texel centres;
+    lin: START + t (STOP - START); sqrt: (sqrt START + t (sqrt STOP - sqrt START))^2; min=LO
+    evaluates at max(value, LO); r and theta map to alpha = r^2 and mu = cos theta."""
+    if not isinstance(spec, str):
+        return list(spec), list(spec)
+    fields = spec.split(":")
+    if len(fields) == 1:
+        v = [float(x) for x in spec.split(",")]
+        return v, v
+    a, b, n = float(fields[0]), float(fields[1]), int(fields[2])
+    flags = fields[3:]
+    i = np.arange(n)
+    t = (i + 0.5) / n if "centres" in flags else i / (n - 1)
+    v = ((np.sqrt(a) + t * (np.sqrt(b) - np.sqrt(a))) ** 2 if "sqrt" in flags
+         else a + t * (b - a))
+    lo = [float(f[4:]) for f in flags if f.startswith("min=")]
+    return v.tolist(), (np.maximum(v, lo[0]) if lo else v).tolist()
+
+
+def cell_params(axes, names, idx):
+    """The model's keywords at one cell (mu and phi apart)."""
+    out = {}
+    for k, i in zip(names, idx):
+        name, f = MODEL_OF.get(k, (k, lambda v: v))
+        out[name] = float(f(np.float64(axis_values(axes[k])[1][i])))
+    return out
 
 
 @pytest.mark.parametrize("case", list(CASES))
@@ -36,26 +74,37 @@ def test_table_cells_equal_direct_albedo(case):
     name, axes, fixed = CASES[case]
     t = albedo_table(name, axes, samples=N, seed=3, **fixed)
     names = list(axes)
-    shape = tuple(len(v) for v in axes.values())
+    shape = tuple(len(axis_values(v)[0]) for v in axes.values())
+    for k in names:
+        assert np.allclose(t[k], axis_values(axes[k])[0], rtol=1e-12, atol=1e-15), k
     rgb = fixed.get("channels") == 3 or "preset" in fixed
-    assert t["E"].shape == shape + ((3,) if rgb else ())
-    fixed_model = {k: v for k, v in fixed.items()}
+    split = fixed.get("split", False)
+    model_fixed = {k: v for k, v in fixed.items() if k != "split"}
+    quantities = SPLIT_AS if split else {"E": {}}
+    for q in quantities:
+        assert t[q].shape == shape + ((3,) if rgb else ())
     for idx in itertools.product(*[range(n) for n in shape]):
-        cell = {k: axes[k][i] for k, i in zip(names, idx)}
+        cell = cell_params(axes, names, idx)
         mu, phi = cell.pop("mu"), cell.pop("phi", 0.0)
-        r = clbrdf.albedo(clbrdf.Model(name, **fixed_model, **cell), mu, phi, samples=N, seed=11)
-        e, s = t["E"][idx], t["E_stderr"][idx]
-        z = np.abs(e - r.albedo) / np.sqrt(s ** 2 + r.stderr ** 2 + 1e-300)
-        assert np.all(z < 5), (case, idx, e, r.albedo, z)
+        for q, fres in quantities.items():
+            fres = dict(fres, fresnel="schlick") if fres else {}
+            r = clbrdf.albedo(clbrdf.Model(name, **model_fixed, **fres, **cell), mu, phi,
+                              samples=N, seed=11)
+            e, s = t[q][idx], t[q + "_stderr"][idx]
+            z = np.abs(e - r.albedo) / np.sqrt(s ** 2 + r.stderr ** 2 + 1e-300)
+            assert np.all(z < 5), (case, q, idx, e, r.albedo, z)
     # E_avg over the parameter axes
-    pnames = [k for k in names if k not in ("mu", "phi")]
-    pshape = tuple(len(axes[k]) for k in pnames)
-    assert t["E_avg"].shape == pshape + ((3,) if rgb else ())
-    for idx in itertools.product(*[range(n) for n in pshape]):
-        cell = {k: axes[k][i] for k, i in zip(pnames, idx)}
-        a, s = clbrdf.albedo_avg(clbrdf.Model(name, **fixed_model, **cell), samples=N, seed=5)
-        z = np.abs(t["E_avg"][idx] - a) / np.sqrt(t["E_avg_stderr"][idx] ** 2 + s ** 2)
-        assert np.all(z < 5), (case, idx, t["E_avg"][idx], a)
+    pnames = [k for k in names if k not in ("mu", "theta", "phi")]
+    pshape = tuple(len(axis_values(axes[k])[0]) for k in pnames)
+    for q, fres in quantities.items():
+        assert t[q + "_avg"].shape == pshape + ((3,) if rgb else ())
+        for idx in itertools.product(*[range(n) for n in pshape]):
+            cell = cell_params(axes, pnames, idx)
+            fres = dict(fres, fresnel="schlick") if fres else {}
+            a, s = clbrdf.albedo_avg(clbrdf.Model(name, **model_fixed, **fres, **cell),
+                                     samples=N, seed=5)
+            z = np.abs(t[q + "_avg"][idx] - a) / np.sqrt(t[q + "_avg_stderr"][idx] ** 2 + s ** 2)
+            assert np.all(z < 5), (case, q, idx, t[q + "_avg"][idx], a)
 
 
 @pytest.mark.parametrize("model, kw", [
@@ -116,7 +165,7 @@ def test_python_table_metadata_is_complete():
         assert k in meta, k
 
 
-@pytest.mark.parametrize("case", ["rgb-axis-first", "anisotropic-phi", "schlick-scratch",
+@pytest.mark.parametrize("case", ["rgb-axis-first", "anisotropic-phi", "schlick-scratch", "r-theta-centres",
                                   "preset-spectral-axis"])
 def test_chart_and_files_of_every_axis_kind(case, tmp_path):
     """The chart has one row per channel of an RGB table and says at which value of further
