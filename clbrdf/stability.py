@@ -13,7 +13,8 @@ a thousandth of the estimate's standard error). A cell records:
 - ``efficiency``: 1 / (mean squared error x time) of the estimator against the best estimator
   at that cell and precision, where the squared error per sample is the larger of the variance
   and the squared deviation from the reference (so that an estimator whose rare events were not
-  drawn, and whose error bar is therefore too small, is not rated by that error bar);
+  drawn, and whose error bar is therefore too small, is not rated by that error bar; an
+  estimate of 0 +- 0 where E > 0, no sample having contributed, has efficiency 0);
   ``useless`` below USELESS;
 - ``precision_loss`` (single only): the estimate is non-finite where double precision's is not,
   or biased (and not useless) where double precision, same estimator and sampler, is neither
@@ -205,6 +206,8 @@ def measure(name: str, refs: dict, *, samples: int = SAMPLES, precisions=("singl
                     mse = samples * np.maximum(se ** 2, np.maximum(dev - eps_floor, 0) ** 2) \
                         + samples * eps_floor ** 2
                     eff = np.where(np.isfinite(mse) & np.isfinite(e), 1 / (mse * t), 0.0)
+                # no sample contributed (0 +- 0) where E > 0: no estimate at all, efficiency 0
+                eff = np.where((e == 0) & (se == 0) & (e_ref > 0), 0.0, eff)
                 effs.append(eff)
             best = np.max(effs, axis=0)
             for (est, smp, e, se, t, m), eff in zip(runs, effs):

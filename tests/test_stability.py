@@ -176,12 +176,19 @@ def test_shipped_map_claims():
     assert not any(r["precision_loss"] for r in rows)
     with open(S.MAP.resolve().parent / "checks.csv") as f:
         assert all(c["passed"] == "1" for c in csv.DictReader(f))
-    # biased where the estimator is otherwise useful: Monte Carlo in Schlick 1994 at grazing
-    # angles only; the quadrature (converged) in one cell at normal incidence (findings.md)
+    # biased where the estimator is efficient (within 10x of the best, as the reproduction test
+    # below): Monte Carlo in Schlick 1994 at grazing angles only; between 1e-2 and 1e-1 of the
+    # best, rare events (and the timing) decide (findings.md: the useless threshold is not a
+    # reliability guarantee); the quadrature (converged) in one cell at normal incidence
     bad = [r for r in rows if r["biased"] and not r["useless"]]
     mc = [r for r in bad if r["estimator"] != "quadrature"]
     assert mc and all(r["model"] == "schlick" and r["mu"] <= 1e-6 and r["value"] <= 1e-3
-                      for r in mc)
+                      for r in mc if r["efficiency"] >= 10 * S.USELESS)
+    assert sum(r["model"] != "schlick" for r in mc) <= 2, [r for r in mc if r["model"] != "schlick"]
+    # an estimate of 0 +- 0 where E is representable (no sample contributed) is never useful
+    tiny = {"single": float(np.finfo(np.float32).smallest_subnormal), "double": 0.0}
+    assert not any(r["E"] == 0 and r["stderr"] == 0 and r["E_ref"] > tiny[r["precision"]]
+                   and not r["useless"] for r in rows if r["estimator"] != "quadrature")
     quad = {(r["model"], r["value"], r["mu"], r["precision"]) for r in bad
             if r["estimator"] == "quadrature"}
     assert quad == {("schlick", 1e-4, 1.0, "single")}
