@@ -7,11 +7,13 @@ argument), 3 no usable OpenCL device, 1 anything else. Errors are one line on st
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import threading
 import os
 import re
+import shutil
 import sys
 import textwrap
 import time
@@ -391,6 +393,25 @@ def cmd_layouts(args) -> int:
     return 0
 
 
+@contextlib.contextmanager
+def _resumable(args, out: Path):
+    """The table's computations checkpointed beside its first output (clbrdf.checkpoint), so
+    that a killed run continues with --resume; the checkpoint goes once the files are written."""
+    from .checkpoint import checkpoint
+    where = out.with_name(f".{out.name}.resume")
+    job = {k: v for k, v in sorted(vars(args).items())
+           if k not in ("resume", "argv", "func", "command") and not callable(v)}
+    try:
+        with checkpoint(where, json.loads(json.dumps(job, default=str)),
+                        resume=args.resume) as ck:
+            yield ck
+    except (KeyboardInterrupt, Terminated):
+        print(f"clbrdf table: stopped; finished chunks are kept in {where}; continue with the "
+              f"same command and --resume", file=sys.stderr)
+        raise
+    shutil.rmtree(where, ignore_errors=True)
+
+
 def _layout_table(args, outs) -> int:
     from .layouts import get_layout, make_layout
     from .table import check_out, save_tables
@@ -404,12 +425,13 @@ def _layout_table(args, outs) -> int:
     est = args.estimator
     _model(lay["model"], args, dict(lay.get("fixed", {})))      # no device: fail before work
     t0 = time.perf_counter()
-    tables = make_layout(args.layout, samples=samples, estimator=est, seed=args.seed,
-                         qmc=args.qmc, precision=args.precision, device=args.device,
-                         width=args.width, progress=True, command=cmd, **_quad_args(args),
-                         **_target_args(args))
-    seconds = time.perf_counter() - t0
-    written = [w for o in outs for w in save_tables(tables, o, prefix=_c_name(args.layout))]
+    with _resumable(args, outs[0]):
+        tables = make_layout(args.layout, samples=samples, estimator=est, seed=args.seed,
+                             qmc=args.qmc, precision=args.precision, device=args.device,
+                             width=args.width, progress=True, command=_no_resume(cmd),
+                             **_quad_args(args), **_target_args(args))
+        seconds = time.perf_counter() - t0
+        written = [w for o in outs for w in save_tables(tables, o, prefix=_c_name(args.layout))]
     for name, t in tables.items():
         print(f"{name}: {', '.join(t.quantity)} {' x '.join(str(n) for n in t.shape)} "
               f"({t.encoding}), largest stderr {float(t.stderr.max()):.2g}")
@@ -495,7 +517,7 @@ def cmd_table(args) -> int:
     _model(spec.name, args, params)
     t0 = time.perf_counter()
     why = _choose_estimator(args)
-    cmd = " ".join(["clbrdf"] + [_quote(a) for a in args.argv])
+    cmd = _no_resume(" ".join(["clbrdf"] + [_quote(a) for a in args.argv]))
     if lut:
         from .layouts import compute_table
         from .table import save_tables
@@ -506,27 +528,34 @@ def cmd_table(args) -> int:
                   precision=args.precision, device=args.device, width=args.width, progress=True,
                   command=cmd, fixed={**params, **({"preset": args.preset} if args.preset else {})},
                   **_target_args(args))
-        luts = {"E": compute_table(spec.name, "E", "E", list(axes.values()), **kw)}
-        pax = [a for n, a in axes.items() if n not in ("mu", "theta", "phi")]
-        if pax:
-            luts["E_avg"] = compute_table(spec.name, "E_avg", "E_avg", pax, **kw)
-        written = [w for o in outs for w in save_tables(luts, o, prefix=_c_name(spec.name))]
+        with _resumable(args, out):
+            luts = {"E": compute_table(spec.name, "E", "E", list(axes.values()), **kw)}
+            pax = [a for n, a in axes.items() if n not in ("mu", "theta", "phi")]
+            if pax:
+                luts["E_avg"] = compute_table(spec.name, "E_avg", "E_avg", pax, **kw)
+            written = [w for o in outs for w in save_tables(luts, o, prefix=_c_name(spec.name))]
         for name, t in luts.items():
             print(f"{name}: {' x '.join(str(n) for n in t.shape)}, largest stderr "
                   f"{float(t.stderr.max()):.2g}")
         print(f"{time.perf_counter() - t0:.1f} s; wrote {', '.join(map(str, written))}")
     else:
-        table = albedo_table(spec.name, axes, samples=args.samples, estimator=args.estimator,
-                             seed=args.seed, qmc=args.qmc, precision=args.precision,
-                             device=args.device, width=args.width, progress=True,
-                             preset=args.preset, command=cmd, **_quad_args(args),
-                             **_target_args(args), **params)
-        seconds = time.perf_counter() - t0
-        written = tables.save_table(table, out)
+        with _resumable(args, out):
+            table = albedo_table(spec.name, axes, samples=args.samples,
+                                 estimator=args.estimator, seed=args.seed, qmc=args.qmc,
+                                 precision=args.precision, device=args.device, width=args.width,
+                                 progress=True, preset=args.preset, command=cmd,
+                                 **_quad_args(args), **_target_args(args), **params)
+            seconds = time.perf_counter() - t0
+            written = tables.save_table(table, out)
         print(tables.summary(table, seconds, written))
     if why:
         print(f"(no --estimator: {why})")
     return 0
+
+
+def _no_resume(cmd: str) -> str:
+    """The command as recorded in a table's metadata: a resumed run's result is the same."""
+    return " ".join(w for w in cmd.split(" ") if w != "--resume")
 
 
 def _target_args(args) -> dict:
@@ -899,6 +928,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", "-o", required=True, metavar="FILE", action="append",
                    help="output .npz, .csv, .h or .exr; with --layout or .h/.exr it may be "
                         "repeated (one computation, several files)")
+    p.add_argument("--resume", action="store_true",
+                   help="continue a killed run of the same command: its finished chunks are "
+                        "kept in .FILE.resume/ beside the first --out until the files are written")
     p.set_defaults(func=cmd_table)
 
     p = sub.add_parser("furnace", parents=[dev],

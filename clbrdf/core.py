@@ -310,8 +310,11 @@ def albedo(m: Model, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 <
                             m.describe(), tol=tol, evaluations=evals.reshape(shape))
     from .stability import warn_if_useless
     warn_if_useless(m, np.broadcast_to(mu, shape), estimator)
-    est, err, plan, seconds = runtime.run_albedo(m, shape, wo, estimator=estimator, samples=samples,
-                                                 seed=seed, qmc=qmc, progress=progress)
+    from .checkpoint import current
+    ck = current()
+    run = runtime.run_albedo if ck is None else ck.run_albedo
+    est, err, plan, seconds = run(m, shape, wo, estimator=estimator, samples=samples,
+                                  seed=seed, qmc=qmc, progress=progress)
     return AlbedoResult(est.reshape(cshape), err.reshape(cshape), np.broadcast_to(mu, shape),
                         estimator, plan.samples, qmc, int(seed), m.precision, seconds,
                         m.describe())
