@@ -72,7 +72,8 @@ def test_commit_restores_old_files_when_a_replace_fails(tmp_path, monkeypatch):
 
 
 def test_sigterm_leaves_no_temporary_file(tmp_path):
-    """SIGTERM during the work: exit 143, the old files unchanged, nothing else in the directory."""
+    """SIGTERM during the work: exit 143, the old files unchanged, nothing else in the directory
+    but the checkpoint that --resume continues from (clbrdf.checkpoint), which stderr names."""
     out = tmp_path / "t.npz"
     out.write_text("old")
     p = subprocess.Popen([sys.executable, "-m", "clbrdf.cli", *TABLE, "--samples", str(1 << 30),
@@ -84,7 +85,10 @@ def test_sigterm_leaves_no_temporary_file(tmp_path):
     assert p.returncode == 143, err
     assert time.perf_counter() - t0 < 5          # launches are short: answered within seconds
     assert out.read_text() == "old"
-    assert [q.name for q in tmp_path.iterdir()] == ["t.npz"]
+    assert sorted(q.name for q in tmp_path.iterdir()) == [".t.npz.resume", "t.npz"]
+    assert "--resume" in err.decode()
+    ck = tmp_path / ".t.npz.resume"
+    assert not any(q.name.endswith(".tmp") for q in ck.iterdir())
 
 
 def test_stale_temporary_files_are_removed(tmp_path):
