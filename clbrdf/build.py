@@ -126,7 +126,8 @@ def program_source(cfg: Config, precision: str, width: int, *, part: str = "batc
     model = [expand(h, seen) for h in cfg.headers] + [expand(cfg.header, seen)]
     if _table_names("\n".join(model)):
         fields.append("    Tables tables;")
-    body.append("typedef struct {\n" + "\n".join(fields) + "\n} Params;\n")
+    body.append("typedef struct {\n" + "\n".join(fields) + "\n} Params;\n"
+                f"#define {cfg.prefix}_params Params\n")     # the model header's name for it
     body += model
     body.append(expand("integrators.cl", seen))
     return with_tables("\n".join(lines) + "\n" + "\n".join(body))

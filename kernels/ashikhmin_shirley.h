@@ -39,7 +39,7 @@
 #define ashikhmin_shirley_SAMPLE_DIMS (AS_DIFFUSE ? 3 : 2)   /* numbers the sampler uses */
 
 /* (n.h)^e of eq 16 from any positive multiple of h (h.z > 0). */
-inline realN as_lobe(const Params *p, vec3 h)
+FN realN as_lobe(const ashikhmin_shirley_params *p, vec3 h)
 {
     realN iz = 1 / h.z;
     realN sx = h.x * iz, sy = h.y * iz;
@@ -49,10 +49,10 @@ inline realN as_lobe(const Params *p, vec3 h)
 }
 
 /* sqrt((nu+1)(nv+1)) */
-inline realN as_norm(const Params *p) { return sqrt(p->nu + 1) * sqrt(p->nv + 1); }
+FN realN as_norm(const ashikhmin_shirley_params *p) { return sqrt(p->nu + 1) * sqrt(p->nv + 1); }
 
 /* ks F(c) of channel ch (eq 11 or the dielectric Fresnel). */
-inline realN as_fresnel(const Params *p, realN c, int ch)
+FN realN as_fresnel(const ashikhmin_shirley_params *p, realN c, int ch)
 {
 #if AS_FRESNEL
     realN F = fresnel_dielectric(p->eta[ch], c);
@@ -66,14 +66,14 @@ inline realN as_fresnel(const Params *p, realN c, int ch)
 }
 
 /* 1 - (1 - x/2)^5 without cancellation for small x: a (5 - 10 a + 10 a^2 - 5 a^3 + a^4), a = x/2. */
-inline realN as_one_minus_pow5(realN x)
+FN realN as_one_minus_pow5(realN x)
 {
     realN a = (realN)0.5 * x;
     return a * (5 + a * (-10 + a * (10 + a * (-5 + a))));
 }
 
 /* Diffuse terms of channel ch at cos_i, cos_o (eq 14, and kd / pi). */
-inline realN as_diffuse(const Params *p, realN ci, realN co, int ch)
+FN realN as_diffuse(const ashikhmin_shirley_params *p, realN ci, realN co, int ch)
 {
     realN d = 0;
 #if AS_RD
@@ -87,7 +87,7 @@ inline realN as_diffuse(const Params *p, realN ci, realN co, int ch)
 }
 
 /* f given h (any positive multiple) and k.h. */
-inline spec as_eval_h(const Params *p, vec3 wo, vec3 wi, vec3 h, realN kh)
+FN spec as_eval_h(const ashikhmin_shirley_params *p, vec3 wo, vec3 wi, vec3 h, realN kh)
 {
     realN s = as_norm(p) * (realN)(0.125) * INV_PI_R * as_lobe(p, h)
               / (kh * fmax(wi.z, wo.z));                                   /* eq 16 */
@@ -103,7 +103,7 @@ inline spec as_eval_h(const Params *p, vec3 wo, vec3 wi, vec3 h, realN kh)
     return f;
 }
 
-ALWAYS_INLINE spec ashikhmin_shirley_eval(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE spec ashikhmin_shirley_eval(const ashikhmin_shirley_params *p, vec3 wo, vec3 wi)
 {
     vec3 s = add3(wi, wo);
     return as_eval_h(p, wo, wi, s, (realN)0.5 * sqrt(dot3(s, s)));
@@ -111,7 +111,7 @@ ALWAYS_INLINE spec ashikhmin_shirley_eval(const Params *p, vec3 wo, vec3 wi)
 
 /* Exact albedo of the diffuse terms of channel ch at cos_o: the integral of
  * (1 - (1 - n.wi/2)^5) n.wi over the hemisphere is 23 pi / 28, so rd (1 - rs)(1 - (1 - cos_o/2)^5) + kd. */
-inline realN as_diffuse_albedo(const Params *p, realN co, int ch)
+FN realN as_diffuse_albedo(const ashikhmin_shirley_params *p, realN co, int ch)
 {
     realN d = 0;
 #if AS_RD
@@ -124,7 +124,7 @@ inline realN as_diffuse_albedo(const Params *p, realN co, int ch)
 }
 
 /* Probability of the cosine lobe in the sampling mixture. */
-inline realN as_diffuse_prob(const Params *p, vec3 wo)
+FN realN as_diffuse_prob(const ashikhmin_shirley_params *p, vec3 wo)
 {
 #if AS_DIFFUSE
     realN wd = 0, ws = 0;
@@ -140,12 +140,12 @@ inline realN as_diffuse_prob(const Params *p, vec3 wo)
 }
 
 /* Specular lobe density p_h(h) / (4 k.h) (eq 5, 18) from h (any positive multiple) and k.h. */
-inline realN as_lobe_pdf(const Params *p, vec3 h, realN kh)
+FN realN as_lobe_pdf(const ashikhmin_shirley_params *p, vec3 h, realN kh)
 {
     return as_norm(p) * (realN)0.125 * INV_PI_R * as_lobe(p, h) / kh;
 }
 
-inline realN as_pdf_h(const Params *p, vec3 wo, vec3 wi, vec3 h, realN kh)
+FN realN as_pdf_h(const ashikhmin_shirley_params *p, vec3 wo, vec3 wi, vec3 h, realN kh)
 {
     realN pdf = as_lobe_pdf(p, h, kh);
 #if AS_DIFFUSE
@@ -155,14 +155,14 @@ inline realN as_pdf_h(const Params *p, vec3 wo, vec3 wi, vec3 h, realN kh)
     return sel((realN)0, pdf, (wi.z > 0) & (wo.z > 0));
 }
 
-ALWAYS_INLINE realN ashikhmin_shirley_pdf(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE realN ashikhmin_shirley_pdf(const ashikhmin_shirley_params *p, vec3 wo, vec3 wi)
 {
     vec3 s = add3(wi, wo);
     return as_pdf_h(p, wo, wi, s, (realN)0.5 * sqrt(dot3(s, s)));
 }
 
 /* Half vector of eq 19-20 from (u0, u1). */
-inline vec3 as_sample_h(const Params *p, realN u0, realN u1)
+FN vec3 as_sample_h(const ashikhmin_shirley_params *p, realN u0, realN u1)
 {
     realN c, s = sincos_2pi(u0, &c);
     realN x = sqrt(p->nv + 1) * c, y = sqrt(p->nu + 1) * s;        /* eq 19: tan phi = y / x */
@@ -177,13 +177,13 @@ inline vec3 as_sample_h(const Params *p, realN u0, realN u1)
 /* The lobes the sampler picks with u2: lobe l for u2 in [ends[l - 1], ends[l]) (ends[-1] = 0,
  * the last end 1); the deterministic quadrature (integrators.cl) integrates each lobe's map. */
 #define ashikhmin_shirley_LOBES 2
-inline void ashikhmin_shirley_lobe_ends(const Params *p, vec3 wo, realN *ends)
+FN void ashikhmin_shirley_lobe_ends(const ashikhmin_shirley_params *p, vec3 wo, realN *ends)
 {
     ends[0] = as_diffuse_prob(p, wo);         /* cosine */
     ends[1] = (realN)1;                       /* specular */
 }
 
-ALWAYS_INLINE BSample ashikhmin_shirley_sample(const Params *p, vec3 wo, rand4 u)
+ALWAYS_INLINE BSample ashikhmin_shirley_sample(const ashikhmin_shirley_params *p, vec3 wo, rand4 u)
 {
     vec3 h = as_sample_h(p, u.u0, u.u1);
     BSample s;

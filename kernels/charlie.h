@@ -25,7 +25,7 @@
 
 /* D(h) from log(sin^2 theta_h): sin^(1/alpha) multiplies the rounding of sin^2 by 1/(2 alpha)
  * (500 at alpha 1e-3), so the log comes from whichever of sin^2 and cos^2 is small. */
-inline realN charlie_D_log(const Params *p, realN log_sin2)
+FN realN charlie_D_log(const charlie_params *p, realN log_sin2)
 {
     realN inv = 1 / p->alpha;
     return (2 + inv) * exp((realN)0.5 * inv * log_sin2) * ((realN)0.5 * INV_PI_R);
@@ -34,14 +34,14 @@ inline realN charlie_D_log(const Params *p, realN log_sin2)
 /* log(sin^2 theta_h) for h along s (any positive multiple): log1p(-cos^2) where h is near the
  * horizon (the sheen's lobe; sin^2 near 1 rounded lost 30x the single-precision D there),
  * log(sin^2) where it is near the normal. */
-inline realN charlie_log_sin2(vec3 s)
+FN realN charlie_log_sin2(vec3 s)
 {
     realN n2 = dot3(s, s);
     realN sin2 = (sqr(s.x) + sqr(s.y)) / n2, cos2 = sqr(s.z) / n2;
     return sel(log1p(-cos2), log(sin2), sin2 < (realN)0.5);
 }
 
-inline realN charlie_L(realN x, realN t)
+FN realN charlie_L(realN x, realN t)
 {
     realN a = (realN)21.5473 + ((realN)25.3245 - (realN)21.5473) * t;
     realN b = (realN)3.82987 + ((realN)3.32435 - (realN)3.82987) * t;
@@ -51,7 +51,7 @@ inline realN charlie_L(realN x, realN t)
     return a / (1 + b * pow_pos(x, c)) + d * x + e;
 }
 
-inline realN charlie_Lambda(const Params *p, realN mu)
+FN realN charlie_Lambda(const charlie_params *p, realN mu)
 {
     realN t = sqr(1 - p->alpha);
     realN lo = charlie_L(mu, t);
@@ -60,7 +60,7 @@ inline realN charlie_Lambda(const Params *p, realN mu)
 }
 
 /* f / (ks D): the visibility term G / (4 cos_i cos_o) or Ashikhmin's. */
-inline realN charlie_V(const Params *p, realN ci, realN co)
+FN realN charlie_V(const charlie_params *p, realN ci, realN co)
 {
 #if CHARLIE_V == 1
     return 1 / (4 * (ci + co - ci * co));
@@ -69,7 +69,7 @@ inline realN charlie_V(const Params *p, realN ci, realN co)
 #endif
 }
 
-ALWAYS_INLINE spec charlie_eval(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE spec charlie_eval(const charlie_params *p, vec3 wo, vec3 wi)
 {
     vec3 s = add3(wi, wo);
     maskN ok = (wi.z > 0) & (wo.z > 0);
@@ -80,7 +80,7 @@ ALWAYS_INLINE spec charlie_eval(const Params *p, vec3 wo, vec3 wi)
     return f;
 }
 
-ALWAYS_INLINE realN charlie_pdf(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE realN charlie_pdf(const charlie_params *p, vec3 wo, vec3 wi)
 {
     vec3 s = add3(wi, wo);
     realN hz = s.z * rsqrt(dot3(s, s));
@@ -88,7 +88,7 @@ ALWAYS_INLINE realN charlie_pdf(const Params *p, vec3 wo, vec3 wi)
     return sel((realN)0, pdf, (wi.z > 0) & (wo.z > 0));
 }
 
-ALWAYS_INLINE BSample charlie_sample(const Params *p, vec3 wo, rand4 u)
+ALWAYS_INLINE BSample charlie_sample(const charlie_params *p, vec3 wo, rand4 u)
 {
     realN k = p->alpha / (2 * p->alpha + 1);
     realN lu = k * log(u.u1);

@@ -14,20 +14,24 @@
 #ifndef CLBRDF_COMMON_H
 #define CLBRDF_COMMON_H
 
+#include "portable.h"
+
 #ifndef W
 #define W 1
 #endif
 
-/* For the functions an estimator calls once per sample (each model's eval, pdf and sample, and
- * albedo_estimate): LLVM's inliner leaves them as calls once they grow, and then the 16-lane
- * vectors of a call's arguments and BSample result go through memory (GGX albedo 578 -> 330 M
- * samples/s when microfacet_sample stopped being inlined; benchmarks/RESULTS.md). */
-#define ALWAYS_INLINE inline __attribute__((always_inline))
+/* ALWAYS_INLINE (portable.h) is for the functions an estimator calls once per sample (each
+ * model's eval, pdf and sample, and albedo_estimate): LLVM's inliner leaves them as calls once
+ * they grow, and then the 16-lane vectors of a call's arguments and BSample result go through
+ * memory (GGX albedo 578 -> 330 M samples/s when microfacet_sample stopped being inlined;
+ * benchmarks/RESULTS.md). */
 #define CAT_(a, b) a##b
 #define CAT(a, b) CAT_(a, b)
 
 #if CLBRDF_DOUBLE
+#if CLBRDF_OPENCL
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
+#endif
 #define REAL double
 #define MASK long
 #define REAL_EPS DBL_EPSILON
@@ -114,7 +118,7 @@ typedef struct { realN x, y, z; } vec3;
 typedef const global float *Tables;
 
 /* T[i] per lane (OpenCL has no vector gather: one load per lane). */
-inline realN table_gather(Tables T, uintN i)
+FN realN table_gather(Tables T, uintN i)
 {
 #if W == 1
     return (realN)T[i];
@@ -134,32 +138,32 @@ inline realN table_gather(Tables T, uintN i)
 }
 
 /* Catmull-Rom between p1 (t = 0) and p2 (t = 1). */
-inline realN catmull_rom(realN p0, realN p1, realN p2, realN p3, realN t)
+FN realN catmull_rom(realN p0, realN p1, realN p2, realN p3, realN t)
 {
     return p1 + (realN)0.5 * t * (p2 - p0 + t * (2 * p0 - 5 * p1 + 4 * p2 - p3
                                                  + t * (3 * (p1 - p2) + p3 - p0)));
 }
 
-inline vec3 v3(realN x, realN y, realN z) { vec3 r = {x, y, z}; return r; }
-inline vec3 add3(vec3 a, vec3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
-inline vec3 sub3(vec3 a, vec3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
-inline vec3 scale3(vec3 a, realN s) { return v3(a.x * s, a.y * s, a.z * s); }
-inline realN dot3(vec3 a, vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-inline vec3 normalize3(vec3 a) { return scale3(a, rsqrt(dot3(a, a))); }
-inline vec3 select3(vec3 a, vec3 b, maskN m)
+FN vec3 v3(realN x, realN y, realN z) { vec3 r = {x, y, z}; return r; }
+FN vec3 add3(vec3 a, vec3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
+FN vec3 sub3(vec3 a, vec3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
+FN vec3 scale3(vec3 a, realN s) { return v3(a.x * s, a.y * s, a.z * s); }
+FN realN dot3(vec3 a, vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+FN vec3 normalize3(vec3 a) { return scale3(a, rsqrt(dot3(a, a))); }
+FN vec3 select3(vec3 a, vec3 b, maskN m)
 {
     return v3(sel(a.x, b.x, m), sel(a.y, b.y, m), sel(a.z, b.z, m));
 }
 /* Mirror reflection of w about the unit normal m. */
-inline vec3 reflect3(vec3 w, vec3 m) { return sub3(scale3(m, 2 * dot3(w, m)), w); }
+FN vec3 reflect3(vec3 w, vec3 m) { return sub3(scale3(m, 2 * dot3(w, m)), w); }
 /* The same about a normal m of any length, times |m|^2: no square root or division. */
-inline vec3 reflect_scaled(vec3 w, vec3 m) { return sub3(scale3(m, 2 * dot3(w, m)), scale3(w, dot3(m, m))); }
+FN vec3 reflect_scaled(vec3 w, vec3 m) { return sub3(scale3(m, 2 * dot3(w, m)), scale3(w, dot3(m, m))); }
 
-inline realN sqr(realN x) { return x * x; }
+FN realN sqr(realN x) { return x * x; }
 
 /* sin(x), and cos(x) in *c. -DCLBRDF_SEPARATE_SINCOS=1 calls sin and cos apart (about 20%
  * slower on PoCL), for oclgrind, whose uninitialised-memory checker rejects sincos's pointer. */
-inline realN sincos_r(realN x, realN *c)
+FN realN sincos_r(realN x, realN *c)
 {
 #if CLBRDF_SEPARATE_SINCOS
     *c = cos(x);
@@ -168,12 +172,12 @@ inline realN sincos_r(realN x, realN *c)
     return sincos(x, c);
 #endif
 }
-inline realN safe_sqrt(realN x) { return sqrt(fmax(x, (realN)0)); }
+FN realN safe_sqrt(realN x) { return sqrt(fmax(x, (realN)0)); }
 
 /* x^y for x >= 0, y > 0. PoCL 3.1's pow on double8 and double16 returns wrong values in other
  * lanes when a lane has x = 0 (pow((1.5, 88, 0, ...), 1) gives (1.5, 0.6875, 0, ...)); those
  * widths use exp(y log x) instead (log 0 = -inf gives 0). */
-inline realN pow_pos(realN x, realN y)
+FN realN pow_pos(realN x, realN y)
 {
 #if CLBRDF_DOUBLE && W >= 8
     return exp(y * log(x));
@@ -187,7 +191,7 @@ inline realN pow_pos(realN x, realN y)
  * [-pi/4, pi/4], where Taylor polynomials of degree 9 (sin) and 10 (cos) err by < 4e-9 in
  * single precision (series in r with the coefficients (2 pi)^k / k!); the quadrant q rotates
  * (s, c). Double precision calls sincos. */
-inline realN sincos_2pi(realN u, realN *c)
+FN realN sincos_2pi(realN u, realN *c)
 {
 #if CLBRDF_DOUBLE
     return sincos_r(2 * PI_R * u, c);
@@ -214,7 +218,7 @@ inline realN sincos_2pi(realN u, realN *c)
 #endif
 typedef struct { realN c[CHANNELS]; } spec;
 
-inline spec spec_splat(realN v)
+FN spec spec_splat(realN v)
 {
     spec s;
     for (int c = 0; c < CHANNELS; ++c)
@@ -222,21 +226,21 @@ inline spec spec_splat(realN v)
     return s;
 }
 
-inline spec spec_scale(spec s, realN v)
+FN spec spec_scale(spec s, realN v)
 {
     for (int c = 0; c < CHANNELS; ++c)
         s.c[c] *= v;
     return s;
 }
 
-inline spec spec_add(spec a, spec b)
+FN spec spec_add(spec a, spec b)
 {
     for (int c = 0; c < CHANNELS; ++c)
         a.c[c] += b.c[c];
     return a;
 }
 
-inline spec spec_sel(spec a, spec b, maskN m)
+FN spec spec_sel(spec a, spec b, maskN m)
 {
     for (int c = 0; c < CHANNELS; ++c)
         a.c[c] = sel(a.c[c], b.c[c], m);
@@ -247,7 +251,7 @@ inline spec spec_sel(spec a, spec b, maskN m)
 typedef struct { vec3 wi; spec weight; realN pdf; } BSample;
 
 /* s where ok, else the zero sample (weight and pdf 0): the last step of every sampler. */
-inline BSample bsample_where(BSample s, maskN ok)
+FN BSample bsample_where(BSample s, maskN ok)
 {
     s.weight = spec_sel(spec_splat((realN)0), s.weight, ok);
     s.pdf = sel((realN)0, s.pdf, ok);
@@ -256,7 +260,7 @@ inline BSample bsample_where(BSample s, maskN ok)
 
 /* Inverse error function. Giles, "Approximating the erfinv function" (GPU Gems 4, 2010),
  * single-precision polynomials; in double precision refined by two Newton steps on erf. */
-inline realN erfinv_r(realN x)
+FN realN erfinv_r(realN x)
 {
     realN w = -log((1 - x) * (1 + x));
     realN a = w - (realN)2.5;
@@ -291,7 +295,7 @@ inline realN erfinv_r(realN x)
  * Not the dot product with the normalised sum: at grazing near-mirror pairs wi + wo rounds by
  * 1e-16 in x and y where its z is 2e-12, which tilts h by 5e-5 and moves dot(wo, h) by as much
  * (sign included: Ward's and Schlick's pdf went negative), while |wi + wo| moves by 1e-9. */
-inline realN half_cos(vec3 wo, vec3 wi)
+FN realN half_cos(vec3 wo, vec3 wi)
 {
     vec3 s = add3(wi, wo);
     return (realN)0.5 * sqrt(dot3(s, s));
@@ -299,7 +303,7 @@ inline realN half_cos(vec3 wo, vec3 wi)
 
 /* V-cavity masking-shadowing, Cook & Torrance 1982 eq 2: min(1, 2 (n.h) min(n.wi, n.wo) / wo.h),
  * with wo.h from half_cos: a rounded wo.h <= 0 used to give G = 0 where the true G is 1. */
-inline realN vcavity_G(vec3 wo, vec3 wi, vec3 h)
+FN realN vcavity_G(vec3 wo, vec3 wi, vec3 h)
 {
     return fmin((realN)1, 2 * h.z * fmin(wi.z, wo.z) / half_cos(wo, wi));
 }

@@ -35,7 +35,7 @@ typedef CAT(int, W) exppow_int;
 #endif
 
 /* D(h) (eq 26), in logs so that the exp(-...) -> 0, cos^-4 -> inf limit never forms 0 * inf. */
-inline realN exppow_D(Microfacet m, vec3 h)
+FN realN exppow_D(Microfacet m, vec3 h)
 {
     realN s = m.ax, p = m.shape;
     realN z2 = h.z * h.z;
@@ -47,7 +47,7 @@ inline realN exppow_D(Microfacet m, vec3 h)
 }
 
 /* One table row at base..base+3, Catmull-Rom in nu~ with parameter t. */
-inline realN exppow_row(Tables T, exppow_int base, realN t)
+FN realN exppow_row(Tables T, exppow_int base, realN t)
 {
     uintN b = convert_uintN(base);
     return catmull_rom(table_gather(T, b), table_gather(T, b + 1), table_gather(T, b + 2),
@@ -55,7 +55,7 @@ inline realN exppow_row(Tables T, exppow_int base, realN t)
 }
 
 /* log(1 + Lambda) at log nu~ = lv (table lookup, see the header comment). */
-inline realN exppow_log1p_lambda(Tables T, realN p, realN lv)
+FN realN exppow_log1p_lambda(Tables T, realN p, realN lv)
 {
     realN tp = clamp((log(p) - (realN)EXPPOW_TABLE_P0) / (realN)EXPPOW_TABLE_HP,
                      (realN)0, (realN)(EXPPOW_TABLE_NP - 1));
@@ -80,7 +80,7 @@ inline realN exppow_log1p_lambda(Tables T, realN p, realN lv)
 }
 
 /* Smith Lambda (eq 20-21) of direction w, from the table. */
-inline realN exppow_Lambda(Microfacet m, vec3 w)
+FN realN exppow_Lambda(Microfacet m, vec3 w)
 {
     realN p = m.shape;
     realN r2 = w.x * w.x + w.y * w.y;
@@ -91,7 +91,7 @@ inline realN exppow_Lambda(Microfacet m, vec3 w)
 }
 
 /* Normals with density D(h) cos theta_h (eq 22-23): y = Q^-1(1/p, u0) is Gamma(1/p, 1). */
-inline vec3 exppow_sample_ndf(Microfacet m, realN u0, realN u1)
+FN vec3 exppow_sample_ndf(Microfacet m, realN u0, realN u1)
 {
     realN a = 1 / m.shape;
     realN y = gammaincinv_pq(a, 1 - u0, u0);

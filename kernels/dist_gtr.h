@@ -24,15 +24,15 @@
 #include "dist_lambda.h"
 
 /* expm1(z)/z, 1 at z = 0. */
-inline realN gtr_h(realN z) { return sel(expm1(z) / z, (realN)1, z == 0); }
+FN realN gtr_h(realN z) { return sel(expm1(z) / z, (realN)1, z == 0); }
 
-inline realN gtr_c(realN a, realN gamma)
+FN realN gtr_c(realN a, realN gamma)
 {
     realN L = 2 * log(a), g = 1 - gamma;
     return exp(-g * L) * gtr_h(L) / gtr_h(-g * L);
 }
 
-inline realN gtr_D(Microfacet m, vec3 h)
+FN realN gtr_D(Microfacet m, vec3 h)
 {
     realN a = m.ax, gamma = m.shape;
     realN e = a * a * h.z * h.z + (h.x * h.x + h.y * h.y);
@@ -45,7 +45,7 @@ inline realN gtr_D(Microfacet m, vec3 h)
  * (the closed form [asinh(mu/a) - asinh(mu) - ln(1/a) - sqrt(1 + a^2 t^2) + sqrt(1 + t^2)] /
  * (2 ln(1/a)), mu = 1/t = cot theta, without its cancellations);
  *   Lambda_ggx = a^2 s2 / (2 z (z + A)). */
-inline realN gtr_lambda1(realN a, realN z, realN s2, realN *lambda_ggx)
+FN realN gtr_lambda1(realN a, realN z, realN s2, realN *lambda_ggx)
 {
     realN L = 2 * log(a);
     realN A = sqrt(z * z + a * a * s2);
@@ -56,7 +56,7 @@ inline realN gtr_lambda1(realN a, realN z, realN s2, realN *lambda_ggx)
     return gtr_h(L) * s2 / (1 + A) * (1 / z - lp / (1 + z));
 }
 
-inline realN gtr_Lambda(Microfacet m, vec3 w)
+FN realN gtr_Lambda(Microfacet m, vec3 w)
 {
     realN a = m.ax, gamma = m.shape;
     realN z = fabs(w.z), s2 = w.x * w.x + w.y * w.y;
@@ -76,7 +76,7 @@ inline realN gtr_Lambda(Microfacet m, vec3 w)
  *   ln(w / a^2) = log1p(u expm1(-g L)) / g,  ln w = log1p((1 - u) E) / g   (g = 0: -u L, (1-u) L)
  *   (the log1p arguments written as sums of positive terms where they approach -1)
  *   sin^2 = a^2 expm1(ln(w/a^2)) / (1 - a^2),  cos^2 = -expm1(ln w) / (1 - a^2). */
-inline vec3 gtr_sample_ndf(Microfacet m, realN u0, realN u1)
+FN vec3 gtr_sample_ndf(Microfacet m, realN u0, realN u1)
 {
     realN a = m.ax, g = 1 - m.shape;
     realN L = 2 * log(a);

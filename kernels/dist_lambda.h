@@ -10,7 +10,7 @@
 #include "dist_lambda_tables.h"
 
 /* R at continuous node coordinates (xs, xa, xt) (any real: clamped here). */
-inline realN lambda_table_R(Tables T, int ns, int na, int nt,
+FN realN lambda_table_R(Tables T, int ns, int na, int nt,
                             realN xs, realN xa, realN xt)
 {
     xs = clamp(xs, (realN)0, (realN)(ns - 1));

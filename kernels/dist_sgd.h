@@ -36,12 +36,12 @@
 #endif
 
 /* expm1(m l) / m, l at m = 0. */
-inline realN sgd_em1div(realN m, realN l) { return sel(expm1(m * l) / m, l, m == 0); }
+FN realN sgd_em1div(realN m, realN l) { return sel(expm1(m * l) / m, l, m == 0); }
 
 /* integral_x^y t^-p e^-t dt for 0 < x <= y <= 2, given l = ln(y/x) and dd = y - x accurately:
  * sum_n (-1)^n / n! (y^(n+s) - x^(n+s)) / (n+s), s = 1 - p; the differences D_n for n >= 2 by
  * D_n = y D_(n-1) + x^(n-1+s) (y - x), whose terms are positive (no cancellation for x ~ y). */
-inline realN sgd_S(realN x, realN y, realN l, realN dd, realN p)
+FN realN sgd_S(realN x, realN y, realN l, realN dd, realN p)
 {
     realN s = 1 - p;
     realN xs = exp(s * log(x));
@@ -59,7 +59,7 @@ inline realN sgd_S(realN x, realN y, realN l, realN dd, realN p)
 }
 
 /* Gamma(1-p, y) for y >= 2: modified Lentz on the continued fraction (Numerical Recipes gcf). */
-inline realN sgd_CF(realN y, realN p)
+FN realN sgd_CF(realN y, realN p)
 {
     realN s = 1 - p;
     realN b = y + 1 - s, c = (realN)(CLBRDF_DOUBLE ? 1e300 : 1e37), d = 1 / b, h = d;
@@ -75,7 +75,7 @@ inline realN sgd_CF(realN y, realN p)
 }
 
 /* Q(y) = Gamma(1-p, y) for any y > 0, given q2 = Q(2). */
-inline realN sgd_Q(realN y, realN p, realN q2)
+FN realN sgd_Q(realN y, realN p, realN q2)
 {
     realN yc = fmin(y, (realN)2);
     realN lo = q2 + sgd_S(yc, (realN)2, log((realN)2 / yc), 2 - yc, p);
@@ -83,14 +83,14 @@ inline realN sgd_Q(realN y, realN p, realN q2)
 }
 
 /* 1 / kap = a Gamma(1-p, a). */
-inline realN sgd_inv_kap(realN a, realN p)
+FN realN sgd_inv_kap(realN a, realN p)
 {
     return a * sgd_Q(a, p, sgd_CF((realN)2, p));
 }
 
 /* D with a given kap (Bagher eq 6; dj_brdf sgd__ndf): kap e^-y / (pi y^p cos^4), y = a + tan^2/a;
  * an exact 0 where e^-y y^-p underflows (also where cos^4 would). */
-inline realN sgd_D_kap(realN a, realN p, realN kap, vec3 h)
+FN realN sgd_D_kap(realN a, realN p, realN kap, vec3 h)
 {
     realN z2 = h.z * h.z;
     realN y = a + (h.x * h.x + h.y * h.y) / (z2 * a);
@@ -99,7 +99,7 @@ inline realN sgd_D_kap(realN a, realN p, realN kap, vec3 h)
     return sel((realN)0, d, (h.z > 0) & (e < (realN)(CLBRDF_DOUBLE ? 700 : 85)));
 }
 
-inline realN sgd_D(Microfacet m, vec3 h)
+FN realN sgd_D(Microfacet m, vec3 h)
 {
     return sgd_D_kap(m.ax, m.shape, 1 / sgd_inv_kap(m.ax, m.shape), h);
 }
@@ -109,7 +109,7 @@ inline realN sgd_D(Microfacet m, vec3 h)
 
 /* Lambda from the table: R at (p, log2 a + KA a, log2(sqrt(m2) tan theta)), m2 = a (E[y] - a) the mean
  * tan^2 theta_h, E[y] = 1 - p + a^(1-p) e^-a / Q(a), times Beckmann Lambda with alpha_b = sqrt(a). */
-inline realN sgd_Lambda(Microfacet m, vec3 w)
+FN realN sgd_Lambda(Microfacet m, vec3 w)
 {
     realN a = m.ax, p = m.shape;
     realN z = fabs(w.z), sn = sqrt(w.x * w.x + w.y * w.y);
@@ -128,7 +128,7 @@ inline realN sgd_Lambda(Microfacet m, vec3 w)
 #endif
 
 /* d = y - a with lower-CDF mass v (see the header), and Q(a). */
-inline realN sgd_sample_d(realN a, realN p, realN v)
+FN realN sgd_sample_d(realN a, realN p, realN v)
 {
     realN q2 = sgd_CF((realN)2, p);
     realN qa = sgd_Q(a, p, q2);
@@ -163,7 +163,7 @@ inline realN sgd_sample_d(realN a, realN p, realN v)
     return sel(exp(z), (realN)0, v <= 0);
 }
 
-inline vec3 sgd_sample_ndf(Microfacet m, realN u0, realN u1)
+FN vec3 sgd_sample_ndf(Microfacet m, realN u0, realN u1)
 {
     realN a = m.ax;
     realN x = a * sgd_sample_d(a, m.shape, u0);       /* tan^2 theta */

@@ -3,7 +3,7 @@
 #define CLBRDF_FRESNEL_H
 
 /* Schlick 1994 eq 11: F0 + (1 - F0)(1 - c)^5. */
-inline realN fresnel_schlick(realN f0, realN c)
+FN realN fresnel_schlick(realN f0, realN c)
 {
     realN m = clamp(1 - c, (realN)0, (realN)1), m2 = m * m;
     return f0 + (1 - f0) * (m2 * m2 * m);
@@ -11,7 +11,7 @@ inline realN fresnel_schlick(realN f0, realN c)
 
 /* Generalised Schlick: F0 + (F90 - F0)(1 - c)^5; F90 = 1 is eq 11. With (F0, F90) = (1, 0) and
  * (0, 1) it splits E(F0) = F0 A + B into the scale A and bias B that real-time renderers tabulate. */
-inline realN fresnel_schlick_f90(realN f0, realN f90, realN c)
+FN realN fresnel_schlick_f90(realN f0, realN f90, realN c)
 {
     realN m = clamp(1 - c, (realN)0, (realN)1), m2 = m * m;
     return f0 + (f90 - f0) * (m2 * m2 * m);
@@ -21,7 +21,7 @@ inline realN fresnel_schlick_f90(realN f0, realN f90, realN c)
  * eta^2 - (1 - c)(1 + c) has the smaller rounding error (eps (|eta^2 - 1| + c^2) against
  * eps (eta^2 + sin^2)): the first is exact at eta = 1, where the second loses c^2 at grazing; the
  * second keeps eta^2 at small eta, where the first cancels (eta = 1e-6, c = 1: 6e-8 for 1e-12). */
-inline realN eta2_minus_sin2(realN eta, realN c, realN s2)
+FN realN eta2_minus_sin2(realN eta, realN c, realN s2)
 {
     realN a = (eta - 1) * (eta + 1), e2 = eta * eta;
     return sel(e2 - s2, a + c * c, fabs(a) + c * c < e2 + s2);
@@ -31,7 +31,7 @@ inline realN eta2_minus_sin2(realN eta, realN c, realN s2)
  * eta of the inside to the outside; total internal reflection (g^2 < 0) gives 1.
  * g^2 = eta^2 - sin^2 by eta2_minus_sin2 keeps g = c (F = 0) at eta = 1 and g at small eta; the
  * one 0/0 point, eta = 1 and c = 0, takes its limit along c, 0. */
-inline realN fresnel_dielectric(realN eta, realN c)
+FN realN fresnel_dielectric(realN eta, realN c)
 {
     realN s2 = (1 - c) * (1 + c);
     realN g2 = eta2_minus_sin2(eta, c, s2);
@@ -49,7 +49,7 @@ inline realN fresnel_dielectric(realN eta, realN c)
  *   Rp = Rs ((a c - s^2)^2 + b^2 c^2) / ((a c + s^2)^2 + b^2 c^2),   F = (Rs + Rp) / 2.
  * Written as sums of squares (not a2 + b2 + c^2 - 2ac, which cancels to F < 0 near eta = 1,
  * k = 0); a^2 and b^2 each from the form without cancellation for the sign of t1. */
-inline realN fresnel_conductor(realN eta, realN k, realN c)
+FN realN fresnel_conductor(realN eta, realN k, realN c)
 {
     realN c2 = c * c, s2 = (1 - c) * (1 + c);
     /* t1 = eta^2 - k^2 - s^2 with eta^2 - s^2 from eta2_minus_sin2: exact at eta = 1, k = 0,

@@ -40,7 +40,7 @@
 
 /* kw / (lambda^4 E_a_lambda) of channel c, and the diffraction lobe's albedo at normal incidence
  * (without G) in *albedo. */
-inline realN hp_diffraction_scale(const Params *p, int c, realN *albedo)
+FN realN hp_diffraction_scale(const holzschuch_pacanowski_params *p, int c, realN *albedo)
 {
     real_t L = HP_LAMBDA(c);
     realN x = sqr(p->a * L);                                   /* c = a^2 lambda^2 */
@@ -56,7 +56,7 @@ inline realN hp_diffraction_scale(const Params *p, int c, realN *albedo)
 
 /* f with the half vector h and c = wi.h given (the sampler passes the h it drew: recomputing
  * it from a rounded wi misses a near-mirror lobe at grazing angles in single precision). */
-inline spec hp_eval_h(const Params *p, vec3 wo, vec3 wi, vec3 h, realN ch)
+FN spec hp_eval_h(const holzschuch_pacanowski_params *p, vec3 wo, vec3 wi, vec3 h, realN ch)
 {
     Microfacet m = MICROFACET(p->sigma, p->sigma, p->p, p);
     realN G = 1 / ((1 + exppow_Lambda(m, wi)) * (1 + exppow_Lambda(m, wo)));   /* eq 6-7 */
@@ -77,13 +77,13 @@ inline spec hp_eval_h(const Params *p, vec3 wo, vec3 wi, vec3 h, realN ch)
     return f;
 }
 
-ALWAYS_INLINE spec holzschuch_pacanowski_eval(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE spec holzschuch_pacanowski_eval(const holzschuch_pacanowski_params *p, vec3 wo, vec3 wi)
 {
     return hp_eval_h(p, wo, wi, normalize3(add3(wi, wo)), half_cos(wo, wi));
 }
 
 /* Probabilities of the reflection lobe (*ps) and of the cosine lobes (returned). */
-inline realN hp_lobe_probs(const Params *p, realN *ps)
+FN realN hp_lobe_probs(const holzschuch_pacanowski_params *p, realN *ps)
 {
     realN s = 0, w = 0, d = 0;
     for (int c = 0; c < CHANNELS; ++c) {
@@ -98,7 +98,7 @@ inline realN hp_lobe_probs(const Params *p, realN *ps)
     return sel((w + d) / t, (realN)0, t <= 0);
 }
 
-inline realN hp_pdf_h(const Params *p, vec3 wo, vec3 wi, vec3 h, realN oh)
+FN realN hp_pdf_h(const holzschuch_pacanowski_params *p, vec3 wo, vec3 wi, vec3 h, realN oh)
 {
     Microfacet m = MICROFACET(p->sigma, p->sigma, p->p, p);
     realN ps, pc = hp_lobe_probs(p, &ps);
@@ -107,7 +107,7 @@ inline realN hp_pdf_h(const Params *p, vec3 wo, vec3 wi, vec3 h, realN oh)
     return sel((realN)0, pdf, (wi.z > 0) & (wo.z > 0));
 }
 
-ALWAYS_INLINE realN holzschuch_pacanowski_pdf(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE realN holzschuch_pacanowski_pdf(const holzschuch_pacanowski_params *p, vec3 wo, vec3 wi)
 {
     return hp_pdf_h(p, wo, wi, normalize3(add3(wi, wo)), half_cos(wo, wi));
 }
@@ -115,13 +115,13 @@ ALWAYS_INLINE realN holzschuch_pacanowski_pdf(const Params *p, vec3 wo, vec3 wi)
 /* The lobes the sampler picks with u2: lobe l for u2 in [ends[l - 1], ends[l]) (ends[-1] = 0,
  * the last end 1); the deterministic quadrature (integrators.cl) integrates each lobe's map. */
 #define holzschuch_pacanowski_LOBES 2
-inline void holzschuch_pacanowski_lobe_ends(const Params *p, vec3 wo, realN *ends)
+FN void holzschuch_pacanowski_lobe_ends(const holzschuch_pacanowski_params *p, vec3 wo, realN *ends)
 {
     hp_lobe_probs(p, ends);                   /* reflection lobe */
     ends[1] = (realN)1;                       /* cosine */
 }
 
-ALWAYS_INLINE BSample holzschuch_pacanowski_sample(const Params *p, vec3 wo, rand4 u)
+ALWAYS_INLINE BSample holzschuch_pacanowski_sample(const holzschuch_pacanowski_params *p, vec3 wo, rand4 u)
 {
     Microfacet m = MICROFACET(p->sigma, p->sigma, p->p, p);
     realN ps;

@@ -63,7 +63,7 @@ __kernel void random_batch(const ulong n, const uint point, const uint stream, c
 #endif
 
 /* W consecutive queries starting at i (batch kernels). */
-inline Params load_params(const global real_t *P, Tables TABLES, ulong stride, ulong i)
+FN Params load_params(const global real_t *P, Tables TABLES, ulong stride, ulong i)
 {
     Params p;
 #if CLBRDF_TABLES
@@ -78,7 +78,7 @@ inline Params load_params(const global real_t *P, Tables TABLES, ulong stride, u
 }
 
 /* One query broadcast to all lanes (albedo kernel: lanes are samples of one point). */
-inline Params splat_params(const global real_t *P, Tables TABLES, ulong stride, ulong i)
+FN Params splat_params(const global real_t *P, Tables TABLES, ulong stride, ulong i)
 {
     Params p;
 #if CLBRDF_TABLES
@@ -92,18 +92,18 @@ inline Params splat_params(const global real_t *P, Tables TABLES, ulong stride, 
     return p;
 }
 
-inline vec3 load_dir(const global real_t *D, ulong stride, ulong i)
+FN vec3 load_dir(const global real_t *D, ulong stride, ulong i)
 {
     return v3(VLOAD(D + i), VLOAD(D + stride + i), VLOAD(D + 2 * stride + i));
 }
 
-inline void store_spec(spec v, global real_t *out, ulong stride, ulong i)
+FN void store_spec(spec v, global real_t *out, ulong stride, ulong i)
 {
     for (int c = 0; c < CHANNELS; ++c)
         VSTORE(v.c[c], out + c * stride + i);
 }
 
-inline void store_dir(vec3 v, global real_t *D, ulong stride, ulong i)
+FN void store_dir(vec3 v, global real_t *D, ulong stride, ulong i)
 {
     VSTORE(v.x, D + i);
     VSTORE(v.y, D + stride + i);
@@ -187,7 +187,7 @@ ALWAYS_INLINE spec albedo_estimate(const Params *p, vec3 wo, rand4 u)
 
 /* Work-item g of an albedo launch: its point (point0 + g / launch_blocks, whose parameters and
  * wo it loads) and block (block0 + g % launch_blocks); 0 for a padding work-item. */
-inline int albedo_work(const global real_t *P, Tables TABLES, const global real_t *WO,
+FN int albedo_work(const global real_t *P, Tables TABLES, const global real_t *WO,
                        ulong npoints, ulong point0, uint block0, uint launch_blocks,
                        Params *p, vec3 *wo, uint *point, uint *block)
 {
@@ -361,7 +361,7 @@ __kernel void albedo_qmc(const global real_t *P, Tables TABLES, const global rea
  * weights are 0): the fine rule, and two coarser ones (clbrdf/runtime.py, quad_rule). Per
  * channel the panel writes the fine rule's value at out[2 (CHANNELS g + c)] and the larger of
  * its differences from the coarse rules at + 1, its error estimate. */
-inline realN sidi4(realN v, realN *jac)
+FN realN sidi4(realN v, realN *jac)
 {
     realN w = 1 - v, v3 = v * v * v, w3 = w * w * w, a = v3 * v, b = w3 * w, d = a + b;
     *jac = 4 * v3 * w3 / (d * d);

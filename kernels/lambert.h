@@ -11,7 +11,7 @@
 
 #define lambert_SAMPLE_DIMS 2
 
-ALWAYS_INLINE spec lambert_eval(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE spec lambert_eval(const lambert_params *p, vec3 wo, vec3 wi)
 {
     maskN ok = (wi.z > 0) & (wo.z > 0);
     spec f;
@@ -20,12 +20,12 @@ ALWAYS_INLINE spec lambert_eval(const Params *p, vec3 wo, vec3 wi)
     return f;
 }
 
-ALWAYS_INLINE realN lambert_pdf(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE realN lambert_pdf(const lambert_params *p, vec3 wo, vec3 wi)
 {
     return sel((realN)0, cosine_hemisphere_pdf(wi), wo.z > 0);
 }
 
-ALWAYS_INLINE BSample lambert_sample(const Params *p, vec3 wo, rand4 u)
+ALWAYS_INLINE BSample lambert_sample(const lambert_params *p, vec3 wo, rand4 u)
 {
     BSample s;
     s.wi = square_to_cosine_hemisphere(u.u0, u.u1);

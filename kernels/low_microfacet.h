@@ -39,21 +39,21 @@
 #define low_microfacet_SAMPLE_DIMS (LOW_DIFFUSE ? 3 : 2)
 
 /* x = 1 - cos theta_h from H = wi + wo, without cancellation. */
-inline realN low_one_minus_cos_h(vec3 H)
+FN realN low_one_minus_cos_h(vec3 H)
 {
     realN t2 = H.x * H.x + H.y * H.y, n = sqrt(t2 + H.z * H.z);
     return t2 / (n * (n + H.z));
 }
 
 /* 1 / N of eq 24: P_h = (1 + b x)^-c / N. */
-inline realN low_h_norm_inv(realN b, realN c)
+FN realN low_h_norm_inv(realN b, realN c)
 {
     realN L = log1p(b);
     return b / (2 * PI_R * L * low_expm1_over((1 - c) * L));
 }
 
 
-inline realN low_mf_diffuse_prob(const Params *p, vec3 wo)
+FN realN low_mf_diffuse_prob(const low_microfacet_params *p, vec3 wo)
 {
 #if LOW_DIFFUSE
     realN a = 0, kd = 0;
@@ -71,7 +71,7 @@ inline realN low_mf_diffuse_prob(const Params *p, vec3 wo)
 #endif
 }
 
-ALWAYS_INLINE spec low_microfacet_eval(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE spec low_microfacet_eval(const low_microfacet_params *p, vec3 wo, vec3 wi)
 {
     vec3 H = add3(wi, wo);
     vec3 h = normalize3(H);
@@ -92,14 +92,14 @@ ALWAYS_INLINE spec low_microfacet_eval(const Params *p, vec3 wo, vec3 wi)
 }
 
 /* Density of the half-vector sampler per unit solid angle of wi (eq 23, 28). */
-inline realN low_mf_lobe_pdf(const Params *p, vec3 wo, vec3 wi)
+FN realN low_mf_lobe_pdf(const low_microfacet_params *p, vec3 wo, vec3 wi)
 {
     realN x = low_one_minus_cos_h(add3(wi, wo));
     realN oh = half_cos(wo, wi);
     return exp(-p->c * log1p(p->b * x)) * low_h_norm_inv(p->b, p->c) / (4 * oh);
 }
 
-ALWAYS_INLINE realN low_microfacet_pdf(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE realN low_microfacet_pdf(const low_microfacet_params *p, vec3 wo, vec3 wi)
 {
     realN pdf = low_mf_lobe_pdf(p, wo, wi);
 #if LOW_DIFFUSE
@@ -110,7 +110,7 @@ ALWAYS_INLINE realN low_microfacet_pdf(const Params *p, vec3 wo, vec3 wi)
 }
 
 /* Half vector for u0, u1 (eq 25-26). */
-inline vec3 low_sample_h(realN b, realN c, realN u0, realN u1, realN *x_out)
+FN vec3 low_sample_h(realN b, realN c, realN u0, realN u1, realN *x_out)
 {
     realN L = log1p(b);
     realN x = fmin(expm1(L * low_log1p_over(u0, (1 - c) * L)) / b, (realN)1);
@@ -123,13 +123,13 @@ inline vec3 low_sample_h(realN b, realN c, realN u0, realN u1, realN *x_out)
 /* The lobes the sampler picks with u2: lobe l for u2 in [ends[l - 1], ends[l]) (ends[-1] = 0,
  * the last end 1); the deterministic quadrature (integrators.cl) integrates each lobe's map. */
 #define low_microfacet_LOBES 2
-inline void low_microfacet_lobe_ends(const Params *p, vec3 wo, realN *ends)
+FN void low_microfacet_lobe_ends(const low_microfacet_params *p, vec3 wo, realN *ends)
 {
     ends[0] = low_mf_diffuse_prob(p, wo);     /* cosine */
     ends[1] = (realN)1;                       /* microfacet lobe */
 }
 
-ALWAYS_INLINE BSample low_microfacet_sample(const Params *p, vec3 wo, rand4 u)
+ALWAYS_INLINE BSample low_microfacet_sample(const low_microfacet_params *p, vec3 wo, rand4 u)
 {
     realN x;
     vec3 h = low_sample_h(p->b, p->c, u.u0, u.u1, &x);

@@ -46,18 +46,18 @@
 #define low_smooth_SAMPLE_DIMS (LOW_MIXTURE ? 3 : 2)
 
 /* |Dp|^2 = |Lp + Vp|^2 (eq 10). */
-inline realN low_dp2(vec3 wo, vec3 wi) { return sqr(wi.x + wo.x) + sqr(wi.y + wo.y); }
+FN realN low_dp2(vec3 wo, vec3 wi) { return sqr(wi.x + wo.x) + sqr(wi.y + wo.y); }
 
 /* cos theta_d = sqrt(1 - |Lp - Vp|^2 / 4) (eq 13-14), written for unit wi, wo as a sum of
  * squares, 0.5 sqrt(|Lp + Vp|^2 + 2 (cos_i^2 + cos_o^2)): the printed form cancels near the
  * grazing mirror direction (5 % off in single, and F = 1 at eta = 1 where it is 0). */
-inline realN low_cos_d(vec3 wo, vec3 wi)
+FN realN low_cos_d(vec3 wo, vec3 wi)
 {
     return (realN)0.5 * sqrt(low_dp2(wo, wi) + 2 * (wi.z * wi.z + wo.z * wo.z));
 }
 
 /* L of eq 19 for a lobe of sharpness b seen from wo: pi A M_d = b / L. */
-inline realN low_disk_log(realN b, vec3 wo)
+FN realN low_disk_log(realN b, vec3 wo)
 {
     realN ro2 = wo.x * wo.x + wo.y * wo.y, co2 = wo.z * wo.z;
     realN q1 = 2 * b * (1 + ro2) + sqr(b * co2);          /* Q - 1 */
@@ -66,13 +66,13 @@ inline realN low_disk_log(realN b, vec3 wo)
 }
 
 /* Density on the unit disk of the C = 1 lobe (eq 18), given L. */
-inline realN low_disk_pdf(realN b, realN L, realN dp2)
+FN realN low_disk_pdf(realN b, realN L, realN dp2)
 {
     return b / (PI_R * L * (1 + b * dp2));
 }
 
 /* Lp for u0, u1 (eq 20-22); returns wi (z >= 0). */
-inline vec3 low_disk_sample(realN b, realN L, vec3 wo, realN u0, realN u1)
+FN vec3 low_disk_sample(realN b, realN L, vec3 wo, realN u0, realN u1)
 {
     realN ro2 = wo.x * wo.x + wo.y * wo.y, ro = sqrt(ro2);
     realN e = expm1(u0 * L);
@@ -92,7 +92,7 @@ inline vec3 low_disk_sample(realN b, realN L, vec3 wo, realN u0, realN u1)
 /* Mixture probabilities (cosine lobe, lobe 1, lobe 2), proportional to rough albedos. */
 typedef struct { realN d, l1, l2, L1, L2; } LowSmoothMix;
 
-inline LowSmoothMix low_smooth_mix(const Params *p, vec3 wo)
+FN LowSmoothMix low_smooth_mix(const low_smooth_params *p, vec3 wo)
 {
     LowSmoothMix m;
     m.L1 = low_disk_log(p->b, wo);
@@ -124,7 +124,7 @@ inline LowSmoothMix low_smooth_mix(const Params *p, vec3 wo)
     return m;
 }
 
-ALWAYS_INLINE spec low_smooth_eval(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE spec low_smooth_eval(const low_smooth_params *p, vec3 wo, vec3 wi)
 {
     realN dp2 = low_dp2(wo, wi);
     realN F = low_fresnel(p->eta, low_cos_d(wo, wi));
@@ -147,7 +147,7 @@ ALWAYS_INLINE spec low_smooth_eval(const Params *p, vec3 wo, vec3 wi)
     return f;
 }
 
-inline realN low_smooth_pdf_mix(const Params *p, LowSmoothMix m, vec3 wo, vec3 wi)
+FN realN low_smooth_pdf_mix(const low_smooth_params *p, LowSmoothMix m, vec3 wo, vec3 wi)
 {
     realN dp2 = low_dp2(wo, wi);
     realN pd = m.l1 * low_disk_pdf(p->b, m.L1, dp2);
@@ -161,7 +161,7 @@ inline realN low_smooth_pdf_mix(const Params *p, LowSmoothMix m, vec3 wo, vec3 w
     return sel((realN)0, pd, (wi.z > 0) & (wo.z > 0));
 }
 
-ALWAYS_INLINE realN low_smooth_pdf(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE realN low_smooth_pdf(const low_smooth_params *p, vec3 wo, vec3 wi)
 {
     return low_smooth_pdf_mix(p, low_smooth_mix(p, wo), wo, wi);
 }
@@ -169,7 +169,7 @@ ALWAYS_INLINE realN low_smooth_pdf(const Params *p, vec3 wo, vec3 wi)
 /* The lobes the sampler picks with u2: lobe l for u2 in [ends[l - 1], ends[l]) (ends[-1] = 0,
  * the last end 1); the deterministic quadrature (integrators.cl) integrates each lobe's map. */
 #define low_smooth_LOBES 3
-inline void low_smooth_lobe_ends(const Params *p, vec3 wo, realN *ends)
+FN void low_smooth_lobe_ends(const low_smooth_params *p, vec3 wo, realN *ends)
 {
     LowSmoothMix m = low_smooth_mix(p, wo);
     ends[0] = m.d;                            /* cosine */
@@ -177,7 +177,7 @@ inline void low_smooth_lobe_ends(const Params *p, vec3 wo, realN *ends)
     ends[2] = (realN)1;                       /* first lobe */
 }
 
-ALWAYS_INLINE BSample low_smooth_sample(const Params *p, vec3 wo, rand4 u)
+ALWAYS_INLINE BSample low_smooth_sample(const low_smooth_params *p, vec3 wo, rand4 u)
 {
     LowSmoothMix m = low_smooth_mix(p, wo);
     BSample s;

@@ -50,7 +50,7 @@
 #define MF(fn) CAT(MF_DIST, CAT(_, fn))
 #define microfacet_SAMPLE_DIMS (MF_DIFFUSE ? 3 : 2)   /* numbers microfacet_sample uses */
 
-inline Microfacet mf_distribution(const Params *p)
+FN Microfacet mf_distribution(const microfacet_params *p)
 {
 #if MF_ANISO
     Microfacet m = MICROFACET(p->alpha_x, p->alpha_y, (realN)0, p);
@@ -64,7 +64,7 @@ inline Microfacet mf_distribution(const Params *p)
 }
 
 /* ks F(c) of channel ch. */
-inline realN mf_fresnel(const Params *p, realN c, int ch)
+FN realN mf_fresnel(const microfacet_params *p, realN c, int ch)
 {
 #if MF_FRESNEL == FRESNEL_SCHLICK && MF_F90
     realN F = fresnel_schlick_f90(p->f0[ch], p->f90[ch], c);
@@ -88,7 +88,7 @@ inline realN mf_fresnel(const Params *p, realN c, int ch)
  * above 1/2 (one rounding near 1, where a sharp lobe's weights lie: c d r rounds three times and
  * near-mirror GGX's single-precision stderr was 1.75x double's; 1 - t r everywhere cancels at
  * grazing: G1 at mu 1e-6 was 1e-3 off). t = 0: 1, also where w underflowed (t = d = 0). */
-inline realN mf_G1c(Microfacet m, vec3 w, realN c)
+FN realN mf_G1c(Microfacet m, vec3 w, realN c)
 {
 #if MF(HAS_LAMBDA_PARTS)
     realN d, t = MF(Lambda_parts)(m, w, &d);
@@ -99,10 +99,10 @@ inline realN mf_G1c(Microfacet m, vec3 w, realN c)
 #endif
 }
 
-inline realN mf_G1(Microfacet m, vec3 w) { return mf_G1c(m, w, (realN)1); }
+FN realN mf_G1(Microfacet m, vec3 w) { return mf_G1c(m, w, (realN)1); }
 
 /* Masking-shadowing G(wo, wi, h) (MODELS.md section 1). */
-inline realN mf_G(Microfacet m, vec3 wo, vec3 wi, vec3 h)
+FN realN mf_G(Microfacet m, vec3 wo, vec3 wi, vec3 h)
 {
 #if MF_MASKING == MASKING_CORRELATED
     return 1 / (1 + MF(Lambda)(m, wi) + MF(Lambda)(m, wo));
@@ -116,7 +116,7 @@ inline realN mf_G(Microfacet m, vec3 wo, vec3 wi, vec3 h)
 }
 
 /* G(wo, wi, h) / G1(wo): the visible-normal sampler's weight without Fresnel. */
-inline realN mf_G_over_G1(Microfacet m, vec3 wo, vec3 wi, vec3 h)
+FN realN mf_G_over_G1(Microfacet m, vec3 wo, vec3 wi, vec3 h)
 {
 #if MF_MASKING == MASKING_CORRELATED
     return mf_G1c(m, wi, 1 + MF(Lambda)(m, wo));
@@ -128,7 +128,7 @@ inline realN mf_G_over_G1(Microfacet m, vec3 wo, vec3 wi, vec3 h)
 }
 
 /* Probability of the Lambertian lobe in the sampling mixture. */
-inline realN mf_diffuse_prob(const Params *p, vec3 wo)
+FN realN mf_diffuse_prob(const microfacet_params *p, vec3 wo)
 {
 #if MF_DIFFUSE
     realN kd = 0, fs = 0;
@@ -143,7 +143,7 @@ inline realN mf_diffuse_prob(const Params *p, vec3 wo)
 #endif
 }
 
-ALWAYS_INLINE spec microfacet_eval(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE spec microfacet_eval(const microfacet_params *p, vec3 wo, vec3 wi)
 {
     Microfacet m = mf_distribution(p);
     vec3 h = normalize3(add3(wi, wo));
@@ -162,7 +162,7 @@ ALWAYS_INLINE spec microfacet_eval(const Params *p, vec3 wo, vec3 wi)
 }
 
 /* Density of the specular lobe's sampler, per unit solid angle of wi; oh = wo.h. */
-inline realN mf_lobe_pdf(Microfacet m, vec3 wo, vec3 h, realN oh)
+FN realN mf_lobe_pdf(Microfacet m, vec3 wo, vec3 h, realN oh)
 {
 #if MF_SAMPLER == SAMPLER_VNDF
     return mf_G1(m, wo) * MF(D)(m, h) / (4 * wo.z);
@@ -171,7 +171,7 @@ inline realN mf_lobe_pdf(Microfacet m, vec3 wo, vec3 h, realN oh)
 #endif
 }
 
-ALWAYS_INLINE realN microfacet_pdf(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE realN microfacet_pdf(const microfacet_params *p, vec3 wo, vec3 wi)
 {
     Microfacet m = mf_distribution(p);
     vec3 h = normalize3(add3(wi, wo));
@@ -186,13 +186,13 @@ ALWAYS_INLINE realN microfacet_pdf(const Params *p, vec3 wo, vec3 wi)
 /* The lobes the sampler picks with u2: lobe l for u2 in [ends[l - 1], ends[l]) (ends[-1] = 0,
  * the last end 1); the deterministic quadrature (integrators.cl) integrates each lobe's map. */
 #define microfacet_LOBES 2
-inline void microfacet_lobe_ends(const Params *p, vec3 wo, realN *ends)
+FN void microfacet_lobe_ends(const microfacet_params *p, vec3 wo, realN *ends)
 {
     ends[0] = mf_diffuse_prob(p, wo);         /* cosine */
     ends[1] = (realN)1;                       /* specular */
 }
 
-ALWAYS_INLINE BSample microfacet_sample(const Params *p, vec3 wo, rand4 u)
+ALWAYS_INLINE BSample microfacet_sample(const microfacet_params *p, vec3 wo, rand4 u)
 {
     Microfacet m = mf_distribution(p);
     BSample s;

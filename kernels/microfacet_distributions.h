@@ -25,18 +25,18 @@ typedef struct { realN ax, ay, shape; } Microfacet;
 #endif
 
 /* Squared roughness along the azimuth of w, times tan^2 theta_w: (wx^2 ax^2 + wy^2 ay^2) / wz^2. */
-inline realN projected_roughness2(Microfacet m, vec3 w)
+FN realN projected_roughness2(Microfacet m, vec3 w)
 {
     return sqr(w.x * m.ax) + sqr(w.y * m.ay);
 }
 
 /* The normal of the slope (sx, sy), unnormalised, and the unit normal. */
-inline vec3 slope_normal(realN sx, realN sy) { return v3(-sx, -sy, (realN)1); }
-inline vec3 slope_to_normal(realN sx, realN sy) { return normalize3(slope_normal(sx, sy)); }
+FN vec3 slope_normal(realN sx, realN sy) { return v3(-sx, -sy, (realN)1); }
+FN vec3 slope_to_normal(realN sx, realN sy) { return normalize3(slope_normal(sx, sy)); }
 
 /* ---- GGX: Walter et al. 2007 eq 33, anisotropic form of Heitz 2014 eq 85 ----
  * D = 1 / (pi ax ay (x^2/ax^2 + y^2/ay^2 + z^2)^2), which needs no division by cos theta. */
-inline realN ggx_D(Microfacet m, vec3 h)
+FN realN ggx_D(Microfacet m, vec3 h)
 {
     realN e = sqr(h.x / m.ax) + sqr(h.y / m.ay) + h.z * h.z;
     return sel((realN)0, INV_PI_R / (m.ax * m.ay * e * e), h.z > 0);
@@ -46,21 +46,21 @@ inline realN ggx_D(Microfacet m, vec3 h)
  * t = a^2 tan^2 z^2: no cancellation for small t; homogeneous of degree 0 in w. */
 #define ggx_LAMBDA_SCALE_FREE 1
 #define ggx_HAS_LAMBDA_PARTS 1           /* Lambda = t / d, for c / (c + Lambda) in one division */
-inline realN ggx_Lambda_parts(Microfacet m, vec3 w, realN *d)
+FN realN ggx_Lambda_parts(Microfacet m, vec3 w, realN *d)
 {
     realN t = projected_roughness2(m, w), z = fabs(w.z);
     *d = 2 * (z * z + z * sqrt(z * z + t));
     return t;
 }
 
-inline realN ggx_Lambda(Microfacet m, vec3 w)
+FN realN ggx_Lambda(Microfacet m, vec3 w)
 {
     realN d, t = ggx_Lambda_parts(m, w, &d);
     return t / d;
 }
 
 /* Slopes of GGX are a bivariate Student-t with 2 degrees of freedom: r^2 = u / (1 - u). */
-inline vec3 ggx_sample_ndf(Microfacet m, realN u0, realN u1)
+FN vec3 ggx_sample_ndf(Microfacet m, realN u0, realN u1)
 {
     realN r = sqrt(u0 / (1 - u0));
     realN c, s = sincos_2pi(u1, &c);
@@ -69,7 +69,7 @@ inline vec3 ggx_sample_ndf(Microfacet m, realN u0, realN u1)
 
 /* Visible normals by spherical caps (Dupuy & Benyoub 2023): uniform point on the cap of the
  * unit sphere around the stretched direction, unstretched (not normalised). */
-inline vec3 ggx_sample_vndf(Microfacet m, vec3 w, realN u0, realN u1)
+FN vec3 ggx_sample_vndf(Microfacet m, vec3 w, realN u0, realN u1)
 {
     vec3 ws = normalize3(v3(w.x * m.ax, w.y * m.ay, w.z));
     realN z = (1 - u1) * (1 + ws.z) - ws.z;
@@ -82,7 +82,7 @@ inline vec3 ggx_sample_vndf(Microfacet m, vec3 w, realN u0, realN u1)
 /* ---- Beckmann: Walter et al. 2007 eq 25, anisotropic ----
  * D = exp(-e) / (pi ax ay cos^4), e = (x^2/ax^2 + y^2/ay^2) / z^2. Where exp(-e) underflows
  * the value is an exact 0 (this also avoids 0/0 at grazing h). */
-inline realN beckmann_D(Microfacet m, vec3 h)
+FN realN beckmann_D(Microfacet m, vec3 h)
 {
     realN z2 = h.z * h.z;
     realN e = (sqr(h.x / m.ax) + sqr(h.y / m.ay)) / z2;
@@ -93,7 +93,7 @@ inline realN beckmann_D(Microfacet m, vec3 h)
 /* Lambda = (erf(a) - 1)/2 + exp(-a^2) / (2 a sqrt(pi)), a = 1 / (alpha tan theta) (Walter 2007
  * eq 27 with Smith), written with erfc to avoid 1 - erf(a) cancellation. */
 #define beckmann_LAMBDA_SCALE_FREE 1
-inline realN beckmann_Lambda(Microfacet m, vec3 w)
+FN realN beckmann_Lambda(Microfacet m, vec3 w)
 {
     realN a = fabs(w.z) * rsqrt(projected_roughness2(m, w));   /* inf at normal incidence */
     realN l = (realN)0.5 * (exp(-a * a) * INV_SQRT_PI_R / a - erfc(a));
@@ -101,7 +101,7 @@ inline realN beckmann_Lambda(Microfacet m, vec3 w)
 }
 
 /* Slopes of Beckmann are Gaussian with variance alpha^2 / 2 per axis. */
-inline vec3 beckmann_sample_ndf(Microfacet m, realN u0, realN u1)
+FN vec3 beckmann_sample_ndf(Microfacet m, realN u0, realN u1)
 {
     realN r = sqrt(-log1p(-u0));
     realN c, s = sincos_2pi(u1, &c);
@@ -120,7 +120,7 @@ inline vec3 beckmann_sample_ndf(Microfacet m, realN u0, realN u1)
  * in the x-z plane (Heitz & d'Eon 2014 section 4, with Jakob's safeguarded Newton inversion of
  * the x-slope CDF in the erf domain, as in Mitsuba and pbrt-v3; here branch-free, fixed steps).
  * Returns the slopes in (sx, sy). */
-inline void beckmann_visible_slopes11(realN cos_t, realN u0, realN u1, realN *sx, realN *sy)
+FN void beckmann_visible_slopes11(realN cos_t, realN u0, realN u1, realN *sx, realN *sy)
 {
     realN sin_t = safe_sqrt(1 - cos_t * cos_t);
     realN tan_t = sin_t / cos_t, cot_t = cos_t / sin_t;      /* cot = inf at normal incidence */
@@ -145,7 +145,7 @@ inline void beckmann_visible_slopes11(realN cos_t, realN u0, realN u1, realN *sx
     *sy = erfinv_r(2 * u1 - 1);
 }
 
-inline vec3 beckmann_sample_vndf(Microfacet m, vec3 w, realN u0, realN u1)
+FN vec3 beckmann_sample_vndf(Microfacet m, vec3 w, realN u0, realN u1)
 {
     vec3 ws = normalize3(v3(w.x * m.ax, w.y * m.ay, w.z));
     realN sx, sy;

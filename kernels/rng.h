@@ -41,7 +41,7 @@ typedef ulong8 ulongH;
 #endif
 #define as_uintN CAT(as_uint, W)
 
-inline uintN mulhilo32(uintN x, uint m, uintN *hi)
+FN uintN mulhilo32(uintN x, uint m, uintN *hi)
 {
 #if W == 1
     ulong p = (ulong)x * m;
@@ -56,7 +56,7 @@ inline uintN mulhilo32(uintN x, uint m, uintN *hi)
 #endif
 }
 
-inline uint4N philox4x32_10(uint4N c, uint k0, uint k1)
+FN uint4N philox4x32_10(uint4N c, uint k0, uint k1)
 {
     for (int r = 0; r < 10; ++r) {
         uintN hi0, hi1;
@@ -73,7 +73,7 @@ inline uint4N philox4x32_10(uint4N c, uint k0, uint k1)
 /* 32 random bits to a real in the open interval (0, 1): the centre of one of 2^23
  * (single) or 2^32 (double) equal cells, so log(u) and log(1 - u) are always finite.
  * Single precision keeps 23 bits: a centre (k + 1/2) 2^-24 with k >= 2^23 is not a float. */
-inline realN bits_to_unit(uintN x)
+FN realN bits_to_unit(uintN x)
 {
 #if CLBRDF_DOUBLE
     return (convert_realN(x) + (realN)0.5) * (realN)2.3283064365386963e-10;
@@ -82,7 +82,7 @@ inline realN bits_to_unit(uintN x)
 #endif
 }
 
-inline rand4 rand_philox(uintN sample, uint point, uint stream, uint seed_lo, uint seed_hi)
+FN rand4 rand_philox(uintN sample, uint point, uint stream, uint seed_lo, uint seed_hi)
 {
     uint4N c = {sample, (uintN)point, (uintN)stream, (uintN)0};
     c = philox4x32_10(c, seed_lo, seed_hi);
@@ -113,7 +113,7 @@ __constant uint SOBOL_VR[4][32] = {
      0x0100011au, 0x030002a7u, 0x0400079eu, 0x0a000b6du, 0x1f001001u, 0x2e003003u, 0x45004004u, 0xc900a00au}};
 
 /* Dimension d of Sobol point `index`, bit-reversed. */
-inline uintN sobol_rev(uintN index, int d)
+FN uintN sobol_rev(uintN index, int d)
 {
     uintN x = (uintN)0;
     for (int j = 0; j < 32; ++j)
@@ -121,7 +121,7 @@ inline uintN sobol_rev(uintN index, int d)
     return x;
 }
 
-inline uintN reverse_bits(uintN x)
+FN uintN reverse_bits(uintN x)
 {
     x = ((x >> 1) & (uintN)0x55555555u) | ((x & (uintN)0x55555555u) << 1);
     x = ((x >> 2) & (uintN)0x33333333u) | ((x & (uintN)0x33333333u) << 2);
@@ -138,7 +138,7 @@ inline uintN reverse_bits(uintN x)
  * points its estimates were biased (GGX dielectric, cosine estimator, mu 0.05, 2^18 samples:
  * -2.1e-5 +- 2.6e-6 over 100 seeds; this hash -3.7e-6 +- 3.0e-6; tests/test_qmc.py). The bits
  * are then put back in order. */
-inline realN sobol_scrambled(uintN xr, uintN seed)
+FN realN sobol_scrambled(uintN xr, uintN seed)
 {
     uintN x = xr;
     x ^= x * (uintN)0x3d20adeau;
@@ -149,7 +149,7 @@ inline realN sobol_scrambled(uintN xr, uintN seed)
     return bits_to_unit(reverse_bits(x));
 }
 
-inline uintN hash_u32(uintN x)
+FN uintN hash_u32(uintN x)
 {
     /* lowbias32 (C. Wellons) */
     x ^= x >> 16; x *= (uintN)0x7feb352du;
@@ -158,13 +158,13 @@ inline uintN hash_u32(uintN x)
     return x;
 }
 
-inline uintN hash_combine(uintN seed, uintN v)
+FN uintN hash_combine(uintN seed, uintN v)
 {
     return seed ^ (v + (uintN)0x9e3779b9u + (seed << 6) + (seed >> 2));
 }
 
 /* The scramble seed of dimension d of the sequence (seed, point, stream). */
-inline uintN sobol_seed(uint seed_lo, uint seed_hi, uint point, uintN stream, uint d)
+FN uintN sobol_seed(uint seed_lo, uint seed_hi, uint point, uintN stream, uint d)
 {
     uintN s = hash_combine(hash_combine((uintN)hash_u32((uintN)seed_lo), (uintN)seed_hi), (uintN)point);
     return hash_combine(hash_u32(hash_combine(s, stream)), (uintN)d);
@@ -174,7 +174,7 @@ inline uintN sobol_seed(uint seed_lo, uint seed_hi, uint point, uintN stream, ui
  * samples are not shuffled: any 2^m consecutive ones aligned at a multiple of 2^m are a
  * (0, m, 2)-net in dimensions (0, 1) and stratified in each dimension. The albedo kernel visits
  * them in Gray-code order (the same points). */
-inline rand4 rand_sobol(uintN sample, uint point, uint stream, uint seed_lo, uint seed_hi)
+FN rand4 rand_sobol(uintN sample, uint point, uint stream, uint seed_lo, uint seed_hi)
 {
     rand4 r = {sobol_scrambled(sobol_rev(sample, 0), sobol_seed(seed_lo, seed_hi, point, (uintN)stream, 0)),
                sobol_scrambled(sobol_rev(sample, 1), sobol_seed(seed_lo, seed_hi, point, (uintN)stream, 1)),

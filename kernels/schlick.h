@@ -40,7 +40,7 @@
 
 typedef struct { realN r, p, ct, st; } SchLayer;
 
-inline SchLayer sch_layer(realN r, realN p, realN psi)
+FN SchLayer sch_layer(realN r, realN p, realN psi)
 {
     SchLayer L;
     L.r = r;
@@ -49,7 +49,7 @@ inline SchLayer sch_layer(realN r, realN p, realN psi)
     return L;
 }
 
-inline SchLayer sch_layer1(const Params *p)
+FN SchLayer sch_layer1(const schlick_params *p)
 {
 #if SCH_ANISO1
     return sch_layer(p->r, p->p, p->psi);
@@ -60,7 +60,7 @@ inline SchLayer sch_layer1(const Params *p)
 }
 
 #if SCH_DOUBLE
-inline SchLayer sch_layer2(const Params *p)
+FN SchLayer sch_layer2(const schlick_params *p)
 {
 #if SCH_ANISO2
     return sch_layer(p->r2, p->p2, p->psi2);
@@ -73,7 +73,7 @@ inline SchLayer sch_layer2(const Params *p)
 
 /* S(u), eq 10 / eq 11; eq 11 is fresnel_schlick, which keeps 1 - u in [0, 1]: a rounded
  * u = wo.h < 0 made S > 1 and R = S D + (1 - S) S2 D2 negative (-1e5 /sr with a sharp layer 2) */
-inline realN sch_S(realN C, realN u)
+FN realN sch_S(realN C, realN u)
 {
 #if SCH_FRESNEL
     return fresnel_schlick(C, u);
@@ -83,7 +83,7 @@ inline realN sch_S(realN C, realN u)
 }
 
 /* Z(t), eq 14, with 1 - t^2 = hx^2 + hy^2 (h unit) */
-inline realN sch_Z(realN r, vec3 h)
+FN realN sch_Z(realN r, vec3 h)
 {
     realN d = h.x * h.x + h.y * h.y + r * h.z * h.z;
     return r / (d * d);
@@ -91,7 +91,7 @@ inline realN sch_Z(realN r, vec3 h)
 
 /* A(w), eq 14: A^2 = p (ht^2 + hb^2) / (ht^2 + p^2 hb^2), (ht, hb) the components of h along
  * and across the scratch; sqrt(p) at h = n. */
-inline realN sch_A(SchLayer L, vec3 h, int aniso)
+FN realN sch_A(SchLayer L, vec3 h, int aniso)
 {
     if (!aniso)
         return (realN)1;
@@ -103,11 +103,11 @@ inline realN sch_A(SchLayer L, vec3 h, int aniso)
 
 /* G(v), eq 16, and 1 - G(v) = r (1 - v) / (r - r v + v) without the cancellation of 1 - G at
  * small r (r = 1e-7: 1 - G G' was 35 % off in single precision) */
-inline realN sch_G(realN r, realN v) { return v / (r - r * v + v); }
-inline realN sch_1mG(realN r, realN v) { return r * (1 - v) / (r - r * v + v); }
+FN realN sch_G(realN r, realN v) { return v / (r - r * v + v); }
+FN realN sch_1mG(realN r, realN v) { return r * (1 - v) / (r - r * v + v); }
 
 /* directional factor D of one layer (eq 12 / 15 / 17 / 18) */
-inline realN sch_D(SchLayer L, int aniso, vec3 wo, vec3 wi, vec3 h)
+FN realN sch_D(SchLayer L, int aniso, vec3 wo, vec3 wi, vec3 h)
 {
     realN A = sch_A(L, h, aniso);
     realN za = sch_Z(L.r, h) * A * (realN)(0.25 * INV_PI_R) / (wo.z * wi.z);
@@ -125,7 +125,7 @@ inline realN sch_D(SchLayer L, int aniso, vec3 wo, vec3 wi, vec3 h)
 }
 
 /* R (eq 9) with a given half vector h (unit, h = normalize(wi + wo)) and u = wo.h */
-inline spec sch_eval_h(const Params *p, vec3 wo, vec3 wi, vec3 h, realN u)
+FN spec sch_eval_h(const schlick_params *p, vec3 wo, vec3 wi, vec3 h, realN u)
 {
     realN d1 = sch_D(sch_layer1(p), SCH_ANISO1, wo, wi, h);
 #if SCH_DOUBLE
@@ -144,7 +144,7 @@ inline spec sch_eval_h(const Params *p, vec3 wo, vec3 wi, vec3 h, realN u)
     return f;
 }
 
-ALWAYS_INLINE spec schlick_eval(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE spec schlick_eval(const schlick_params *p, vec3 wo, vec3 wi)
 {
     return sch_eval_h(p, wo, wi, normalize3(add3(wi, wo)), half_cos(wo, wi));
 }
@@ -152,7 +152,7 @@ ALWAYS_INLINE spec schlick_eval(const Params *p, vec3 wo, vec3 wi)
 /* ---- sampling ---- */
 
 /* AGM(1, p): <A> = sqrt(p) / AGM(1, p) */
-inline realN sch_agm(realN p)
+FN realN sch_agm(realN p)
 {
     realN a = 1, b = p;
     for (int n = 0; n < SCH_AGM_STEPS; ++n) {
@@ -164,14 +164,14 @@ inline realN sch_agm(realN p)
 }
 
 /* Solid-angle density of wi for the half-vector lobe of one layer: t Z A / (pi <A> 4 wo.h) */
-inline realN sch_lobe_pdf(SchLayer L, int aniso, vec3 wo, vec3 h, realN u)
+FN realN sch_lobe_pdf(SchLayer L, int aniso, vec3 wo, vec3 h, realN u)
 {
     realN a_rel = aniso ? sch_A(L, h, aniso) * sch_agm(L.p) * rsqrt(L.p) : (realN)1;
     return h.z * sch_Z(L.r, h) * a_rel * (realN)(0.25 * INV_PI_R) / u;
 }
 
 /* probability of the cosine lobe within a layer */
-inline realN sch_diffuse_prob(SchLayer L, realN v)
+FN realN sch_diffuse_prob(SchLayer L, realN v)
 {
 #if SCH_EQ == 17
     return L.r;
@@ -184,7 +184,7 @@ inline realN sch_diffuse_prob(SchLayer L, realN v)
 }
 
 /* probability of layer 1 */
-inline realN sch_layer_prob(const Params *p, realN v)
+FN realN sch_layer_prob(const schlick_params *p, realN v)
 {
 #if SCH_DOUBLE
     realN w1 = 0, w2 = 0;
@@ -200,7 +200,7 @@ inline realN sch_layer_prob(const Params *p, realN v)
 #endif
 }
 
-inline realN sch_layer_mix_pdf(SchLayer L, int aniso, vec3 wo, vec3 wi, vec3 h, realN u)
+FN realN sch_layer_mix_pdf(SchLayer L, int aniso, vec3 wo, vec3 wi, vec3 h, realN u)
 {
     realN lobe = sch_lobe_pdf(L, aniso, wo, h, u);
 #if SCH_DIFFUSE
@@ -210,7 +210,7 @@ inline realN sch_layer_mix_pdf(SchLayer L, int aniso, vec3 wo, vec3 wi, vec3 h, 
     return lobe;
 }
 
-inline realN sch_pdf_h(const Params *p, vec3 wo, vec3 wi, vec3 h, realN u)
+FN realN sch_pdf_h(const schlick_params *p, vec3 wo, vec3 wi, vec3 h, realN u)
 {
     realN pdf = sch_layer_mix_pdf(sch_layer1(p), SCH_ANISO1, wo, wi, h, u);
 #if SCH_DOUBLE
@@ -220,7 +220,7 @@ inline realN sch_pdf_h(const Params *p, vec3 wo, vec3 wi, vec3 h, realN u)
     return sel((realN)0, pdf, (wi.z > 0) & (wo.z > 0));
 }
 
-ALWAYS_INLINE realN schlick_pdf(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE realN schlick_pdf(const schlick_params *p, vec3 wo, vec3 wi)
 {
     return sch_pdf_h(p, wo, wi, normalize3(add3(wi, wo)), half_cos(wo, wi));
 }
@@ -232,7 +232,7 @@ ALWAYS_INLINE realN schlick_pdf(const Params *p, vec3 wo, vec3 wi)
  * ((a + b)/2, sqrt(a b)); from (p, 1) the AGM steps reach a = b, where chi is uniform:
  * chi_N = pi/2 frac(4 u). Back, in T = tan chi (no cancellation):
  * T_n = 2 a_n T sqrt(1 + T^2) / sqrt((a_n + b_n)^2 + 4 a_n b_n T^2). */
-inline realN sch_azimuth(realN p, realN u, realN *sin_phi)
+FN realN sch_azimuth(realN p, realN u, realN *sin_phi)
 {
     realN a[SCH_AGM_STEPS], b[SCH_AGM_STEPS];
     realN an = p, bn = 1;
@@ -258,7 +258,7 @@ inline realN sch_azimuth(realN p, realN u, realN *sin_phi)
 }
 
 /* half vector of one layer's lobe */
-inline vec3 sch_sample_h(SchLayer L, int aniso, realN u0, realN u1)
+FN vec3 sch_sample_h(SchLayer L, int aniso, realN u0, realN u1)
 {
     /* eq 14: CDF of 2 t Z from the peak: tan^2 theta = r u / (1 - u) */
     realN d = 1 - u1 + L.r * u1;
@@ -278,7 +278,7 @@ inline vec3 sch_sample_h(SchLayer L, int aniso, realN u0, realN u1)
 /* The lobes the sampler picks with u2: lobe l for u2 in [ends[l - 1], ends[l]) (ends[-1] = 0,
  * the last end 1); the deterministic quadrature (integrators.cl) integrates each lobe's map. */
 #define schlick_LOBES (SCH_DOUBLE && SCH_DIFFUSE ? 4 : 2)
-inline void schlick_lobe_ends(const Params *p, vec3 wo, realN *ends)
+FN void schlick_lobe_ends(const schlick_params *p, vec3 wo, realN *ends)
 {
 #if SCH_DOUBLE && SCH_DIFFUSE
     realN P1 = sch_layer_prob(p, wo.z);
@@ -293,7 +293,7 @@ inline void schlick_lobe_ends(const Params *p, vec3 wo, realN *ends)
     ends[schlick_LOBES - 1] = (realN)1;
 }
 
-ALWAYS_INLINE BSample schlick_sample(const Params *p, vec3 wo, rand4 u)
+ALWAYS_INLINE BSample schlick_sample(const schlick_params *p, vec3 wo, rand4 u)
 {
 #if SCH_DOUBLE
     /* u2 picks the layer, then, rescaled to [0, 1), the lobe within it */

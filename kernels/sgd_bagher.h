@@ -31,13 +31,13 @@
 
 #define sgd_bagher_SAMPLE_DIMS 3
 
-inline realN sgdb_fresnel(const Params *P, realN c, int ch)
+FN realN sgdb_fresnel(const sgd_bagher_params *P, realN c, int ch)
 {
     realN m = 1 - c, m2 = m * m;
     return fmax(P->f0[ch] - c * P->f1[ch] + m2 * m2 * m * (1 - P->f0[ch]), (realN)0);
 }
 
-inline realN sgdb_g1(const Params *P, vec3 w, int ch)
+FN realN sgdb_g1(const sgd_bagher_params *P, vec3 w, int ch)
 {
     realN dth = fmax(acos(clamp(w.z, (realN)-1, (realN)1)) - P->theta0[ch], (realN)0);
     realN e = exp(log(P->c[ch]) + P->k[ch] * log(dth));    /* c dth^k; 0 at dth = 0 */
@@ -45,9 +45,9 @@ inline realN sgdb_g1(const Params *P, vec3 w, int ch)
 }
 
 /* a Gamma(1-p, a) of channel ch: 1/kap of the normalised NDF. */
-inline realN sgdb_inv_kap(const Params *P, int ch) { return sgd_inv_kap(P->alpha[ch], P->p[ch]); }
+FN realN sgdb_inv_kap(const sgd_bagher_params *P, int ch) { return sgd_inv_kap(P->alpha[ch], P->p[ch]); }
 
-inline realN sgdb_kap(const Params *P, int ch, realN inv_kap)
+FN realN sgdb_kap(const sgd_bagher_params *P, int ch, realN inv_kap)
 {
 #if SGDB_KAP
     return P->kap[ch];
@@ -59,7 +59,7 @@ inline realN sgdb_kap(const Params *P, int ch, realN inv_kap)
 /* f at the half vector h of (wo, wi) with c = wi.h: the sampler passes the h it drew
  * (normalize(wi + wo) of a rounded wi misses a sharp lobe at grazing angles in single
  * precision). */
-inline spec sgdb_eval_h(const Params *P, vec3 wo, vec3 wi, vec3 h, realN c)
+FN spec sgdb_eval_h(const sgd_bagher_params *P, vec3 wo, vec3 wi, vec3 h, realN c)
 {
     realN cd = clamp(c, (realN)0, (realN)1);
     maskN ok = (wi.z > 0) & (wo.z > 0);
@@ -79,13 +79,13 @@ inline spec sgdb_eval_h(const Params *P, vec3 wo, vec3 wi, vec3 h, realN c)
     return f;
 }
 
-ALWAYS_INLINE spec sgd_bagher_eval(const Params *P, vec3 wo, vec3 wi)
+ALWAYS_INLINE spec sgd_bagher_eval(const sgd_bagher_params *P, vec3 wo, vec3 wi)
 {
     return sgdb_eval_h(P, wo, wi, normalize3(add3(wi, wo)), half_cos(wo, wi));
 }
 
 /* Lobe weights of the sampling mixture; inv_kap[ch] = alpha Gamma(1-p, alpha). Returns the sum. */
-inline realN sgdb_weights(const Params *P, vec3 wo, const realN *inv_kap, realN *wd, realN *ws)
+FN realN sgdb_weights(const sgd_bagher_params *P, vec3 wo, const realN *inv_kap, realN *wd, realN *ws)
 {
     realN tot = 0;
     for (int ch = 0; ch < CHANNELS; ++ch) {
@@ -100,7 +100,7 @@ inline realN sgdb_weights(const Params *P, vec3 wo, const realN *inv_kap, realN 
 
 /* Mixture density of wi (solid angle) with h its half vector and c = wo.h; the cosine density
  * where every weight is 0. */
-inline realN sgdb_pdf_h(const Params *P, vec3 wo, vec3 wi, vec3 h, realN c, const realN *inv_kap)
+FN realN sgdb_pdf_h(const sgd_bagher_params *P, vec3 wo, vec3 wi, vec3 h, realN c, const realN *inv_kap)
 {
     realN wd[CHANNELS], ws[CHANNELS];
     realN tot = sgdb_weights(P, wo, inv_kap, wd, ws);
@@ -114,7 +114,7 @@ inline realN sgdb_pdf_h(const Params *P, vec3 wo, vec3 wi, vec3 h, realN c, cons
     return sel((realN)0, pdf, (wi.z > 0) & (wo.z > 0));
 }
 
-ALWAYS_INLINE realN sgd_bagher_pdf(const Params *P, vec3 wo, vec3 wi)
+ALWAYS_INLINE realN sgd_bagher_pdf(const sgd_bagher_params *P, vec3 wo, vec3 wi)
 {
     realN inv_kap[CHANNELS];
     for (int ch = 0; ch < CHANNELS; ++ch)
@@ -125,7 +125,7 @@ ALWAYS_INLINE realN sgd_bagher_pdf(const Params *P, vec3 wo, vec3 wi)
 /* The lobes the sampler picks with u2: lobe l for u2 in [ends[l - 1], ends[l]) (ends[-1] = 0,
  * the last end 1); the deterministic quadrature (integrators.cl) integrates each lobe's map. */
 #define sgd_bagher_LOBES (2 * CHANNELS)
-inline void sgd_bagher_lobe_ends(const Params *P, vec3 wo, realN *ends)
+FN void sgd_bagher_lobe_ends(const sgd_bagher_params *P, vec3 wo, realN *ends)
 {
     realN inv_kap[CHANNELS], wd[CHANNELS], ws[CHANNELS];
     for (int ch = 0; ch < CHANNELS; ++ch)
@@ -139,7 +139,7 @@ inline void sgd_bagher_lobe_ends(const Params *P, vec3 wo, realN *ends)
     ends[2 * CHANNELS - 1] = (realN)1;
 }
 
-ALWAYS_INLINE BSample sgd_bagher_sample(const Params *P, vec3 wo, rand4 u)
+ALWAYS_INLINE BSample sgd_bagher_sample(const sgd_bagher_params *P, vec3 wo, rand4 u)
 {
     realN inv_kap[CHANNELS], wd[CHANNELS], ws[CHANNELS];
     for (int ch = 0; ch < CHANNELS; ++ch)

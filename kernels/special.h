@@ -36,7 +36,7 @@
 #endif
 
 /* log P(a, x) and log Q(a, x) for x >= 0. */
-inline void gamma_log_pq(realN a, realN x, realN lga, realN *logP, realN *logQ)
+FN void gamma_log_pq(realN a, realN x, realN lga, realN *logP, realN *logQ)
 {
     /* series: P = x^a e^-x / Gamma(a) sum_n x^n / (a (a+1) ... (a+n)), at xs = min(x, a+1) */
     realN xs = fmin(x, a + 1);
@@ -65,7 +65,7 @@ inline void gamma_log_pq(realN a, realN x, realN lga, realN *logP, realN *logQ)
 }
 
 /* x with P(a, x) = p and Q(a, x) = q; the caller gives both (p + q = 1), each to full precision. */
-inline realN gammaincinv_pq(realN a, realN p, realN q)
+FN realN gammaincinv_pq(realN a, realN p, realN q)
 {
     realN lga = lgamma(a);
     maskN lower = p <= q;
@@ -93,7 +93,7 @@ inline realN gammaincinv_pq(realN a, realN p, realN q)
     return x;
 }
 
-inline realN gammaincinv_r(realN a, realN p) { return gammaincinv_pq(a, p, 1 - p); }
-inline realN gammainccinv_r(realN a, realN q) { return gammaincinv_pq(a, 1 - q, q); }
+FN realN gammaincinv_r(realN a, realN p) { return gammaincinv_pq(a, p, 1 - p); }
+FN realN gammainccinv_r(realN a, realN q) { return gammaincinv_pq(a, 1 - q, q); }
 
 #endif

@@ -23,20 +23,20 @@
 #define ward_SAMPLE_DIMS (WARD_DIFFUSE ? 3 : 2)   /* numbers ward_sample uses */
 
 /* The Gaussian's exponent for h = s / |s| (s any positive multiple of h). */
-inline realN ward_exponent(const Params *p, vec3 s)
+FN realN ward_exponent(const ward_params *p, vec3 s)
 {
     return (sqr(s.x / p->alpha_x) + sqr(s.y / p->alpha_y)) / sqr(s.z);
 }
 
 /* Density of the lobe sampler per unit solid angle of wi, from s (a positive multiple of h)
  * and oh = wo.h. */
-inline realN ward_lobe_pdf(const Params *p, vec3 s, realN oh)
+FN realN ward_lobe_pdf(const ward_params *p, vec3 s, realN oh)
 {
     realN hz = s.z * rsqrt(dot3(s, s));
     return exp(-ward_exponent(p, s)) / (4 * PI_R * p->alpha_x * p->alpha_y * hz * hz * hz * oh);
 }
 
-inline realN ward_diffuse_prob(const Params *p)
+FN realN ward_diffuse_prob(const ward_params *p)
 {
 #if WARD_DIFFUSE
     realN kd = 0, ks = 0;
@@ -50,7 +50,7 @@ inline realN ward_diffuse_prob(const Params *p)
 #endif
 }
 
-ALWAYS_INLINE spec ward_eval(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE spec ward_eval(const ward_params *p, vec3 wo, vec3 wi)
 {
     vec3 s = add3(wi, wo);
     realN lobe = exp(-ward_exponent(p, s))
@@ -67,7 +67,7 @@ ALWAYS_INLINE spec ward_eval(const Params *p, vec3 wo, vec3 wi)
     return f;
 }
 
-ALWAYS_INLINE realN ward_pdf(const Params *p, vec3 wo, vec3 wi)
+ALWAYS_INLINE realN ward_pdf(const ward_params *p, vec3 wo, vec3 wi)
 {
     realN pdf = ward_lobe_pdf(p, add3(wi, wo), half_cos(wo, wi));
 #if WARD_DIFFUSE
@@ -80,13 +80,13 @@ ALWAYS_INLINE realN ward_pdf(const Params *p, vec3 wo, vec3 wi)
 /* The lobes the sampler picks with u2: lobe l for u2 in [ends[l - 1], ends[l]) (ends[-1] = 0,
  * the last end 1); the deterministic quadrature (integrators.cl) integrates each lobe's map. */
 #define ward_LOBES 2
-inline void ward_lobe_ends(const Params *p, vec3 wo, realN *ends)
+FN void ward_lobe_ends(const ward_params *p, vec3 wo, realN *ends)
 {
     ends[0] = ward_diffuse_prob(p);           /* cosine */
     ends[1] = (realN)1;                       /* Gaussian lobe */
 }
 
-ALWAYS_INLINE BSample ward_sample(const Params *p, vec3 wo, rand4 u)
+ALWAYS_INLINE BSample ward_sample(const ward_params *p, vec3 wo, rand4 u)
 {
     realN c, sn = sincos_2pi(u.u0, &c);
     realN r = sqrt(-log1p(-u.u1));
