@@ -19,6 +19,12 @@
 #ifndef W
 #define W 1
 #endif
+#ifndef CLBRDF_DOUBLE
+#define CLBRDF_DOUBLE 0
+#endif
+#ifndef CLBRDF_TABLES
+#define CLBRDF_TABLES 0
+#endif
 
 /* ALWAYS_INLINE (portable.h) is for the functions an estimator calls once per sample (each
  * model's eval, pdf and sample, and albedo_estimate): LLVM's inliner leaves them as calls once

@@ -211,11 +211,6 @@ ALWAYS_INLINE BSample microfacet_sample(const microfacet_params *p, vec3 wo, ran
     vec3 h = MF(sample_ndf)(m, u.u0, u.u1), wr = reflect3(wo, h);
     s.wi = wr;
 #endif
-#if MF(LAMBDA_SCALE_FREE) && (MF_MASKING == MASKING_CORRELATED || MF_MASKING == MASKING_SEPARABLE)
-    vec3 wl = wr;                             /* the direction Lambda(wi) takes */
-#else
-    vec3 wl = s.wi;
-#endif
     maskN ok = (wr.z > 0) & (wo.z > 0);
 #if MF_DIFFUSE
     /* mixture with the cosine lobe: weight = f cos / mixture pdf, evaluated with the half vector
@@ -238,6 +233,11 @@ ALWAYS_INLINE BSample microfacet_sample(const microfacet_params *p, vec3 wo, ran
 #else
     /* f cos_i / pdf with D cancelled: vndf F G / G1(wo); ndf F G (wo.h) / (cos_o cos_h) */
     realN c_d = dot3(wo, h);
+#if MF(LAMBDA_SCALE_FREE) && (MF_MASKING == MASKING_CORRELATED || MF_MASKING == MASKING_SEPARABLE)
+    vec3 wl = wr;                             /* the direction Lambda(wi) takes */
+#else
+    vec3 wl = s.wi;
+#endif
     s.pdf = mf_lobe_pdf(m, wo, h, c_d);
 #if MF_SAMPLER == SAMPLER_VNDF
     realN g = mf_G_over_G1(m, wo, wl, h);

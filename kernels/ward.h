@@ -93,7 +93,6 @@ ALWAYS_INLINE BSample ward_sample(const ward_params *p, vec3 wo, rand4 u)
     vec3 h = normalize3(v3(p->alpha_x * r * c, p->alpha_y * r * sn, (realN)1));
     BSample s;
     s.wi = reflect3(wo, h);
-    realN oh = dot3(wo, h);
 #if WARD_DIFFUSE
     /* mixture: the weight from the drawn h for a lobe sample, f cos / pdf for a cosine one */
     realN pd = ward_diffuse_prob(p);
@@ -110,6 +109,7 @@ ALWAYS_INLINE BSample ward_sample(const ward_params *p, vec3 wo, rand4 u)
     for (int ch = 0; ch < CHANNELS; ++ch)
         s.weight.c[ch] = (p->ks[ch] * lobe + p->kd[ch] * INV_PI_R * s.wi.z) * inv;
 #else
+    realN oh = dot3(wo, h);
     maskN ok = (s.wi.z > 0) & (wo.z > 0) & (oh > 0);
     s.pdf = ward_lobe_pdf(p, h, oh);
     realN g = oh * h.z * h.z * h.z * sqrt(s.wi.z / wo.z);
