@@ -7,7 +7,8 @@
 #
 # Steps: python3 with venv (apt-get install python3-venv if missing), a venv in .venv
 # (CLBRDF_VENV overrides), pip install -e '.[test]' (again only when pyproject.toml changes),
-# then Debian's PoCL (as root, when missing) and a probe for a working OpenCL device. PyPI's PoCL
+# then Debian's PoCL (as root, when missing) and a probe for a working OpenCL device; for the
+# tests also gcc, g++ and ocl-icd-opencl-dev (as root, when missing: the C API and examples). PyPI's PoCL
 # (LLVM 14) fails on CPUs that LLVM 14 does not know ("unknown target CPU") and is slower where it
 # works; without root and without a working device the apt command is printed.
 set -euo pipefail
@@ -79,7 +80,19 @@ if ! msg=$(probe); then
     fi
 fi
 
-# 5. the job
+# 5. for the tests: the compilers and the OpenCL headers the C API and examples are built with
+# (tests/test_capi.py, examples/run.sh), installed as root where missing
+if [ "$MODE" = test ] && [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+    need=()
+    for pkg in gcc g++ ocl-icd-opencl-dev; do
+        dpkg -s "$pkg" >/dev/null 2>&1 || need+=("$pkg")
+    done
+    if [ ${#need[@]} -gt 0 ]; then
+        apt_install "${need[@]}"
+    fi
+fi
+
+# 6. the job
 case "$MODE" in
     demo)
         exec "$VENV/bin/clbrdf" table ggx --axis mu=0.02:1:32 --axis alpha=0.02:1:32 \

@@ -43,6 +43,15 @@ FN rand4 clbrdf_random(uint sample, uint point, uint stream, ulong seed)
     return rand_philox(sample, point, stream, (uint)(seed & 0xFFFFFFFFu), (uint)(seed >> 32));
 }
 
+/* The same for an estimator that uses two numbers per sample, keyed as the Python package's
+ * albedo estimators key them with Philox (uniform, cosine, and brdf where the sampler takes
+ * two: MODEL_SAMPLE_DIMS == 2): `clbrdf albedo MODEL --estimator brdf --seed S` averages the
+ * weights of clbrdf_random2(k, 0, 0, S), k < samples, for its first point. */
+FN rand4 clbrdf_random2(uint sample, uint point, uint stream, ulong seed)
+{
+    return rand_philox_pair(sample, point, stream, (uint)(seed & 0xFFFFFFFFu), (uint)(seed >> 32));
+}
+
 #include "clbrdf_models.h"
 
 #if defined(__cplusplus)

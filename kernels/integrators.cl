@@ -230,7 +230,8 @@ __kernel void albedo_blocks(const global real_t *P, Tables TABLES, const global 
         sum[c] = sum2[c] = 0;
 #if RNG_PAIRS
     /* The estimate needs two numbers: one Philox call serves samples 2c and 2c + 1
-     * (words 0-1 and 2-3 of counter c), halving the generator's cost. */
+     * (words 0-1 and 2-3 of counter c), halving the generator's cost: rand_philox_pair's
+     * numbers (rng.h), two samples at a time. */
     for (uint k = 0; k < block_len; k += 2 * W) {
         uintN c = (uintN)((first + k) >> 1) + LANE_IDS;
         uint4N r = {c, (uintN)point, (uintN)stream, (uintN)0};

@@ -90,6 +90,20 @@ FN rand4 rand_philox(uintN sample, uint point, uint stream, uint seed_lo, uint s
     return r;
 }
 
+/* Two numbers of sample `sample` as the albedo estimators that use two per estimate draw them
+ * with Philox (integrators.cl, RNG_PAIRS: uniform, cosine, and brdf with a two-dimensional
+ * sampler): one call serves samples 2c and 2c + 1, words 0-1 and 2-3 of counter (c, point,
+ * stream, 0); u2 = u3 = 1/2. albedo_blocks draws them two at a time. */
+FN rand4 rand_philox_pair(uintN sample, uint point, uint stream, uint seed_lo, uint seed_hi)
+{
+    uint4N c = {sample >> 1, (uintN)point, (uintN)stream, (uintN)0};
+    c = philox4x32_10(c, seed_lo, seed_hi);
+    maskN odd = TO_MASK((sample & 1u) != 0);
+    rand4 r = {sel(bits_to_unit(c.c0), bits_to_unit(c.c2), odd),
+               sel(bits_to_unit(c.c1), bits_to_unit(c.c3), odd), (realN)0.5, (realN)0.5};
+    return r;
+}
+
 /* Sobol generator matrices of dimensions 0-3 (Joe & Kuo's direction numbers), bit-reversed:
  * column j, the contribution of index bit j, holds the direction number v_j with its bits
  * reversed (bit k of the column is bit 31 - k of v_j). A point is built reversed, scrambled there

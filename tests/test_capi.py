@@ -259,3 +259,18 @@ def test_c_api_as_opencl_c(std):
     eps = float(np.finfo(np.float32).eps)
     ulps = np.abs(out - want) / (eps * np.maximum(np.abs(want), np.max(np.abs(want)) * eps))
     assert ulps.max() <= 4, ulps.max()
+
+
+@pytest.mark.skipif(not _have("gcc"), reason="gcc not found")
+def test_examples_run_and_agree_with_python():
+    """bash examples/run.sh: the C99 and OpenCL albedo programs draw the Python package's samples
+    (clbrdf_random2) and agree with `clbrdf albedo` to 1e-5 relative; the energy-compensation
+    example's lookup equals clbrdf.Table.lookup."""
+    env = dict(__import__("os").environ, CLBRDF_PYTHON=sys.executable)
+    r = subprocess.run(["bash", str(ROOT / "examples" / "run.sh")], capture_output=True,
+                       text=True, env=env)
+    assert r.returncode == 0, r.stdout + r.stderr
+    lines = {ln.split()[0]: ln for ln in r.stdout.splitlines() if ln and not ln.startswith(" ")}
+    assert "agree" in lines["c99_albedo"] and "agree" in lines["energy_compensation"], r.stdout
+    if Path("/usr/include/CL/cl.h").exists():
+        assert "agree" in lines["opencl_albedo"], r.stdout
