@@ -19,14 +19,17 @@
  * clbrdf_NAME_defaults(), clbrdf_NAME_eval, clbrdf_NAME_pdf, clbrdf_NAME_sample. The functions
  * are the ones the Python package's kernels run (one lane per call here).
  *
- * In C++ and CUDA everything is in namespace clbrdf. The microfacet models (ggx, beckmann) take
- * one configuration per translation unit (MF_DIST, MF_FRESNEL, ...). gtr, sgd and exppow read
- * generated tables that the C API does not provide yet.
+ * In C++ and CUDA everything is in namespace clbrdf. The microfacet models take one
+ * configuration per translation unit (MF_DIST, MF_FRESNEL, ...). gtr, sgd, exppow,
+ * holzschuch_pacanowski and sgd_bagher read generated tables: set params.tables to the buffer
+ * that clbrdf_tables.h loads (on a GPU, a device copy of it).
  */
 #ifndef CLBRDF_H
 #define CLBRDF_H
 
 #include "portable.h"          /* system headers, outside the namespace */
+#undef CLBRDF_TABLES
+#define CLBRDF_TABLES 1             /* models take the generated tables through params.tables */
 
 #if defined(__cplusplus)
 namespace clbrdf {
@@ -61,11 +64,13 @@ FN rand4 clbrdf_random2(uint sample, uint point, uint stream, ulong seed)
 /* the portability macros are not needed past this point: leave the names to the user */
 #if !CLBRDF_OPENCL
 #undef clamp
+#undef iclamp
 #undef rsqrt
 #undef global
 #undef constant
 #undef __global
 #undef __constant
+#undef convert_int
 #undef convert_uint
 #undef convert_ulong
 #undef convert_float

@@ -7,8 +7,15 @@
  * unit (MF_DIST picks the distribution, default ggx). */
 #ifndef CLBRDF_MODELS_H
 #define CLBRDF_MODELS_H
-/* Not here yet (they read the generated tables buffer): holzschuch_pacanowski, sgd_bagher. */
 
+/* The generated tables some models read (kernels/data/NAME.npy, float32), one buffer in
+ * this order (clbrdf_tables.h loads it); a model's params.tables points at its start. */
+#define CLBRDF_TABLE_NAMES "exppow_g1", "gtr_lambda", "sgd_lambda"
+#define TABLE_exppow_g1 0
+#define TABLE_gtr_lambda 17028
+#define TABLE_sgd_lambda 94700
+#define CLBRDF_TABLE_OFFSETS 0, 17028, 94700
+#define CLBRDF_TABLES_SIZE 167045
 
 /* ---- lambert (Lambertian): kernels/lambert.h ---- */
 typedef struct {
@@ -24,17 +31,23 @@ FN clbrdf_lambert_params clbrdf_lambert_defaults(void)
     for (int c = 0; c < CHANNELS; ++c) p.kd[c] = (real_t)1.0;
     return p;
 }
-/* f(wo, wi) cos-free BRDF value per channel (1/sr); directions in the local frame, z up */
+/* f(wo, wi) per channel (1/sr), without the cosine */
 FN spec clbrdf_lambert_eval(const clbrdf_lambert_params *p, vec3 wo, vec3 wi) { return lambert_eval(p, wo, wi); }
 /* density (1/sr) of wi under clbrdf_lambert_sample, given wo */
 FN real_t clbrdf_lambert_pdf(const clbrdf_lambert_params *p, vec3 wo, vec3 wi) { return lambert_pdf(p, wo, wi); }
-/* wi, weight = f cos(theta_i) / pdf per channel, pdf; u: lambert_SAMPLE_DIMS numbers in (0, 1) */
+/* wi, weight = f cos(theta_i) / pdf per channel, and pdf; u: the first lambert_SAMPLE_DIMS numbers are used */
 FN BSample clbrdf_lambert_sample(const clbrdf_lambert_params *p, vec3 wo, rand4 u) { return lambert_sample(p, wo, u); }
 
 /* ---- ggx (Microfacet, GGX (Trowbridge-Reitz) distribution), beckmann (Microfacet, Beckmann distribution), exppow (Microfacet, exponential-power distribution (alpha = sigma)), gtr (Microfacet, GTR (generalised Trowbridge-Reitz) distribution, isotropic), sgd (Microfacet, shifted gamma distribution (SGD), isotropic): kernels/microfacet.h ---- */
 #ifndef MF_DIST
 #define MF_DIST ggx
 #endif
+#define CLBRDF_MF_ggx 1
+#define CLBRDF_MF_beckmann 2
+#define CLBRDF_MF_exppow 3
+#define CLBRDF_MF_gtr 4
+#define CLBRDF_MF_sgd 5
+#if CAT(CLBRDF_MF_, MF_DIST) == CLBRDF_MF_ggx
 #ifndef MF_ANISO
 #define MF_ANISO 0
 #endif
@@ -56,6 +69,101 @@ FN BSample clbrdf_lambert_sample(const clbrdf_lambert_params *p, vec3 wo, rand4 
 #ifndef MF_F90
 #define MF_F90 0
 #endif
+#elif CAT(CLBRDF_MF_, MF_DIST) == CLBRDF_MF_beckmann
+#ifndef MF_ANISO
+#define MF_ANISO 0
+#endif
+#ifndef MF_MASKING
+#define MF_MASKING MASKING_CORRELATED
+#endif
+#ifndef MF_FRESNEL
+#define MF_FRESNEL FRESNEL_ONE
+#endif
+#ifndef MF_DIFFUSE
+#define MF_DIFFUSE 0
+#endif
+#ifndef MF_SAMPLER
+#define MF_SAMPLER SAMPLER_VNDF
+#endif
+#ifndef MF_KS
+#define MF_KS 0
+#endif
+#ifndef MF_F90
+#define MF_F90 0
+#endif
+#elif CAT(CLBRDF_MF_, MF_DIST) == CLBRDF_MF_exppow
+#ifndef MF_ANISO
+#define MF_ANISO 0
+#endif
+#ifndef MF_MASKING
+#define MF_MASKING MASKING_CORRELATED
+#endif
+#ifndef MF_FRESNEL
+#define MF_FRESNEL FRESNEL_ONE
+#endif
+#ifndef MF_DIFFUSE
+#define MF_DIFFUSE 0
+#endif
+#ifndef MF_SAMPLER
+#define MF_SAMPLER SAMPLER_NDF
+#endif
+#ifndef MF_KS
+#define MF_KS 0
+#endif
+#ifndef MF_F90
+#define MF_F90 0
+#endif
+#define MF_SHAPE p
+#elif CAT(CLBRDF_MF_, MF_DIST) == CLBRDF_MF_gtr
+#ifndef MF_ANISO
+#define MF_ANISO 0
+#endif
+#ifndef MF_MASKING
+#define MF_MASKING MASKING_CORRELATED
+#endif
+#ifndef MF_FRESNEL
+#define MF_FRESNEL FRESNEL_ONE
+#endif
+#ifndef MF_DIFFUSE
+#define MF_DIFFUSE 0
+#endif
+#ifndef MF_SAMPLER
+#define MF_SAMPLER SAMPLER_NDF
+#endif
+#ifndef MF_KS
+#define MF_KS 0
+#endif
+#ifndef MF_F90
+#define MF_F90 0
+#endif
+#define MF_SHAPE gamma
+#elif CAT(CLBRDF_MF_, MF_DIST) == CLBRDF_MF_sgd
+#ifndef MF_ANISO
+#define MF_ANISO 0
+#endif
+#ifndef MF_MASKING
+#define MF_MASKING MASKING_CORRELATED
+#endif
+#ifndef MF_FRESNEL
+#define MF_FRESNEL FRESNEL_ONE
+#endif
+#ifndef MF_DIFFUSE
+#define MF_DIFFUSE 0
+#endif
+#ifndef MF_SAMPLER
+#define MF_SAMPLER SAMPLER_NDF
+#endif
+#ifndef MF_KS
+#define MF_KS 0
+#endif
+#ifndef MF_F90
+#define MF_F90 0
+#endif
+#define MF_SHAPE p
+#endif
+#include "dist_exppow.h"
+#include "dist_gtr.h"
+#include "dist_sgd.h"
 typedef struct {
     real_t alpha;             /* roughness (isotropic), [0.0001, 10], default 0.5 */
     real_t alpha_x;           /* roughness along the tangent x (anisotropic), [0.0001, 10], default 0.5 */
@@ -68,26 +176,10 @@ typedef struct {
     real_t kd[CHANNELS];      /* albedo of the added Lambertian term, [0, 1], default 0 */
     real_t p;                 /* exponential-power kurtosis: P22 ~ exp(-(tan^2 theta / sigma^2)^p), [0.1, 5], default 1 */
     real_t gamma;             /* GTR exponent (2: GGX, 1: Burley's clearcoat), [0.5, 4], default 2 */
-#if CLBRDF_TABLES
-    Tables tables;
-#endif
+    Tables tables;            /* the generated tables (clbrdf_tables.h) */
 } clbrdf_microfacet_params;
 #define microfacet_params clbrdf_microfacet_params
 
-#define CLBRDF_MF_ggx 1
-#define CLBRDF_MF_beckmann 2
-#define CLBRDF_MF_exppow 3
-#define CLBRDF_MF_gtr 4
-#define CLBRDF_MF_sgd 5
-#if CAT(CLBRDF_MF_, MF_DIST) == CLBRDF_MF_exppow
-#error "clbrdf C API: MF_DIST exppow reads the generated tables buffer, which the C API does not provide yet (docs/kernels.md)"
-#endif
-#if CAT(CLBRDF_MF_, MF_DIST) == CLBRDF_MF_gtr
-#error "clbrdf C API: MF_DIST gtr reads the generated tables buffer, which the C API does not provide yet (docs/kernels.md)"
-#endif
-#if CAT(CLBRDF_MF_, MF_DIST) == CLBRDF_MF_sgd
-#error "clbrdf C API: MF_DIST sgd reads the generated tables buffer, which the C API does not provide yet (docs/kernels.md)"
-#endif
 #include "microfacet.h"
 
 #if CAT(CLBRDF_MF_, MF_DIST) == CLBRDF_MF_ggx
@@ -106,13 +198,14 @@ FN clbrdf_microfacet_params clbrdf_ggx_defaults(void)
     for (int c = 0; c < CHANNELS; ++c) p.kd[c] = (real_t)0.0;
     p.p = (real_t)1.0;
     p.gamma = (real_t)2.0;
+    p.tables = 0;               /* set it: clbrdf_tables.h */
     return p;
 }
-/* f(wo, wi) cos-free BRDF value per channel (1/sr); directions in the local frame, z up */
+/* f(wo, wi) per channel (1/sr), without the cosine */
 FN spec clbrdf_ggx_eval(const clbrdf_microfacet_params *p, vec3 wo, vec3 wi) { return microfacet_eval(p, wo, wi); }
 /* density (1/sr) of wi under clbrdf_ggx_sample, given wo */
 FN real_t clbrdf_ggx_pdf(const clbrdf_microfacet_params *p, vec3 wo, vec3 wi) { return microfacet_pdf(p, wo, wi); }
-/* wi, weight = f cos(theta_i) / pdf per channel, pdf; u: microfacet_SAMPLE_DIMS numbers in (0, 1) */
+/* wi, weight = f cos(theta_i) / pdf per channel, and pdf; u: the first microfacet_SAMPLE_DIMS numbers are used */
 FN BSample clbrdf_ggx_sample(const clbrdf_microfacet_params *p, vec3 wo, rand4 u) { return microfacet_sample(p, wo, u); }
 #endif
 
@@ -132,14 +225,96 @@ FN clbrdf_microfacet_params clbrdf_beckmann_defaults(void)
     for (int c = 0; c < CHANNELS; ++c) p.kd[c] = (real_t)0.0;
     p.p = (real_t)1.0;
     p.gamma = (real_t)2.0;
+    p.tables = 0;               /* set it: clbrdf_tables.h */
     return p;
 }
-/* f(wo, wi) cos-free BRDF value per channel (1/sr); directions in the local frame, z up */
+/* f(wo, wi) per channel (1/sr), without the cosine */
 FN spec clbrdf_beckmann_eval(const clbrdf_microfacet_params *p, vec3 wo, vec3 wi) { return microfacet_eval(p, wo, wi); }
 /* density (1/sr) of wi under clbrdf_beckmann_sample, given wo */
 FN real_t clbrdf_beckmann_pdf(const clbrdf_microfacet_params *p, vec3 wo, vec3 wi) { return microfacet_pdf(p, wo, wi); }
-/* wi, weight = f cos(theta_i) / pdf per channel, pdf; u: microfacet_SAMPLE_DIMS numbers in (0, 1) */
+/* wi, weight = f cos(theta_i) / pdf per channel, and pdf; u: the first microfacet_SAMPLE_DIMS numbers are used */
 FN BSample clbrdf_beckmann_sample(const clbrdf_microfacet_params *p, vec3 wo, rand4 u) { return microfacet_sample(p, wo, u); }
+#endif
+
+#if CAT(CLBRDF_MF_, MF_DIST) == CLBRDF_MF_exppow
+typedef clbrdf_microfacet_params clbrdf_exppow_params;
+FN clbrdf_microfacet_params clbrdf_exppow_defaults(void)
+{
+    clbrdf_microfacet_params p;
+    p.alpha = (real_t)0.5;
+    p.alpha_x = (real_t)0.5;
+    p.alpha_y = (real_t)0.5;
+    for (int c = 0; c < CHANNELS; ++c) p.f0[c] = (real_t)0.04;
+    for (int c = 0; c < CHANNELS; ++c) p.f90[c] = (real_t)1.0;
+    for (int c = 0; c < CHANNELS; ++c) p.eta[c] = (real_t)1.5;
+    for (int c = 0; c < CHANNELS; ++c) p.k[c] = (real_t)3.0;
+    for (int c = 0; c < CHANNELS; ++c) p.ks[c] = (real_t)1.0;
+    for (int c = 0; c < CHANNELS; ++c) p.kd[c] = (real_t)0.0;
+    p.p = (real_t)1.0;
+    p.gamma = (real_t)2.0;
+    p.tables = 0;               /* set it: clbrdf_tables.h */
+    return p;
+}
+/* f(wo, wi) per channel (1/sr), without the cosine */
+FN spec clbrdf_exppow_eval(const clbrdf_microfacet_params *p, vec3 wo, vec3 wi) { return microfacet_eval(p, wo, wi); }
+/* density (1/sr) of wi under clbrdf_exppow_sample, given wo */
+FN real_t clbrdf_exppow_pdf(const clbrdf_microfacet_params *p, vec3 wo, vec3 wi) { return microfacet_pdf(p, wo, wi); }
+/* wi, weight = f cos(theta_i) / pdf per channel, and pdf; u: the first microfacet_SAMPLE_DIMS numbers are used */
+FN BSample clbrdf_exppow_sample(const clbrdf_microfacet_params *p, vec3 wo, rand4 u) { return microfacet_sample(p, wo, u); }
+#endif
+
+#if CAT(CLBRDF_MF_, MF_DIST) == CLBRDF_MF_gtr
+typedef clbrdf_microfacet_params clbrdf_gtr_params;
+FN clbrdf_microfacet_params clbrdf_gtr_defaults(void)
+{
+    clbrdf_microfacet_params p;
+    p.alpha = (real_t)0.5;
+    p.alpha_x = (real_t)0.5;
+    p.alpha_y = (real_t)0.5;
+    for (int c = 0; c < CHANNELS; ++c) p.f0[c] = (real_t)0.04;
+    for (int c = 0; c < CHANNELS; ++c) p.f90[c] = (real_t)1.0;
+    for (int c = 0; c < CHANNELS; ++c) p.eta[c] = (real_t)1.5;
+    for (int c = 0; c < CHANNELS; ++c) p.k[c] = (real_t)3.0;
+    for (int c = 0; c < CHANNELS; ++c) p.ks[c] = (real_t)1.0;
+    for (int c = 0; c < CHANNELS; ++c) p.kd[c] = (real_t)0.0;
+    p.p = (real_t)1.0;
+    p.gamma = (real_t)2.0;
+    p.tables = 0;               /* set it: clbrdf_tables.h */
+    return p;
+}
+/* f(wo, wi) per channel (1/sr), without the cosine */
+FN spec clbrdf_gtr_eval(const clbrdf_microfacet_params *p, vec3 wo, vec3 wi) { return microfacet_eval(p, wo, wi); }
+/* density (1/sr) of wi under clbrdf_gtr_sample, given wo */
+FN real_t clbrdf_gtr_pdf(const clbrdf_microfacet_params *p, vec3 wo, vec3 wi) { return microfacet_pdf(p, wo, wi); }
+/* wi, weight = f cos(theta_i) / pdf per channel, and pdf; u: the first microfacet_SAMPLE_DIMS numbers are used */
+FN BSample clbrdf_gtr_sample(const clbrdf_microfacet_params *p, vec3 wo, rand4 u) { return microfacet_sample(p, wo, u); }
+#endif
+
+#if CAT(CLBRDF_MF_, MF_DIST) == CLBRDF_MF_sgd
+typedef clbrdf_microfacet_params clbrdf_sgd_params;
+FN clbrdf_microfacet_params clbrdf_sgd_defaults(void)
+{
+    clbrdf_microfacet_params p;
+    p.alpha = (real_t)0.01;
+    p.alpha_x = (real_t)0.5;
+    p.alpha_y = (real_t)0.5;
+    for (int c = 0; c < CHANNELS; ++c) p.f0[c] = (real_t)0.04;
+    for (int c = 0; c < CHANNELS; ++c) p.f90[c] = (real_t)1.0;
+    for (int c = 0; c < CHANNELS; ++c) p.eta[c] = (real_t)1.5;
+    for (int c = 0; c < CHANNELS; ++c) p.k[c] = (real_t)3.0;
+    for (int c = 0; c < CHANNELS; ++c) p.ks[c] = (real_t)1.0;
+    for (int c = 0; c < CHANNELS; ++c) p.kd[c] = (real_t)0.0;
+    p.p = (real_t)0.5;
+    p.gamma = (real_t)2.0;
+    p.tables = 0;               /* set it: clbrdf_tables.h */
+    return p;
+}
+/* f(wo, wi) per channel (1/sr), without the cosine */
+FN spec clbrdf_sgd_eval(const clbrdf_microfacet_params *p, vec3 wo, vec3 wi) { return microfacet_eval(p, wo, wi); }
+/* density (1/sr) of wi under clbrdf_sgd_sample, given wo */
+FN real_t clbrdf_sgd_pdf(const clbrdf_microfacet_params *p, vec3 wo, vec3 wi) { return microfacet_pdf(p, wo, wi); }
+/* wi, weight = f cos(theta_i) / pdf per channel, and pdf; u: the first microfacet_SAMPLE_DIMS numbers are used */
+FN BSample clbrdf_sgd_sample(const clbrdf_microfacet_params *p, vec3 wo, rand4 u) { return microfacet_sample(p, wo, u); }
 #endif
 
 /* ---- ashikhmin_shirley (Ashikhmin-Shirley 2000 anisotropic Phong (specular eq 16, diffuse eq 14)): kernels/ashikhmin_shirley.h ---- */
@@ -180,11 +355,11 @@ FN clbrdf_ashikhmin_shirley_params clbrdf_ashikhmin_shirley_defaults(void)
     for (int c = 0; c < CHANNELS; ++c) p.kd[c] = (real_t)0.0;
     return p;
 }
-/* f(wo, wi) cos-free BRDF value per channel (1/sr); directions in the local frame, z up */
+/* f(wo, wi) per channel (1/sr), without the cosine */
 FN spec clbrdf_ashikhmin_shirley_eval(const clbrdf_ashikhmin_shirley_params *p, vec3 wo, vec3 wi) { return ashikhmin_shirley_eval(p, wo, wi); }
 /* density (1/sr) of wi under clbrdf_ashikhmin_shirley_sample, given wo */
 FN real_t clbrdf_ashikhmin_shirley_pdf(const clbrdf_ashikhmin_shirley_params *p, vec3 wo, vec3 wi) { return ashikhmin_shirley_pdf(p, wo, wi); }
-/* wi, weight = f cos(theta_i) / pdf per channel, pdf; u: ashikhmin_shirley_SAMPLE_DIMS numbers in (0, 1) */
+/* wi, weight = f cos(theta_i) / pdf per channel, and pdf; u: the first ashikhmin_shirley_SAMPLE_DIMS numbers are used */
 FN BSample clbrdf_ashikhmin_shirley_sample(const clbrdf_ashikhmin_shirley_params *p, vec3 wo, rand4 u) { return ashikhmin_shirley_sample(p, wo, u); }
 
 /* ---- charlie (Charlie sheen (Estevez & Kulla 2017)): kernels/charlie.h ---- */
@@ -206,12 +381,53 @@ FN clbrdf_charlie_params clbrdf_charlie_defaults(void)
     for (int c = 0; c < CHANNELS; ++c) p.ks[c] = (real_t)1.0;
     return p;
 }
-/* f(wo, wi) cos-free BRDF value per channel (1/sr); directions in the local frame, z up */
+/* f(wo, wi) per channel (1/sr), without the cosine */
 FN spec clbrdf_charlie_eval(const clbrdf_charlie_params *p, vec3 wo, vec3 wi) { return charlie_eval(p, wo, wi); }
 /* density (1/sr) of wi under clbrdf_charlie_sample, given wo */
 FN real_t clbrdf_charlie_pdf(const clbrdf_charlie_params *p, vec3 wo, vec3 wi) { return charlie_pdf(p, wo, wi); }
-/* wi, weight = f cos(theta_i) / pdf per channel, pdf; u: charlie_SAMPLE_DIMS numbers in (0, 1) */
+/* wi, weight = f cos(theta_i) / pdf per channel, and pdf; u: the first charlie_SAMPLE_DIMS numbers are used */
 FN BSample clbrdf_charlie_sample(const clbrdf_charlie_params *p, vec3 wo, rand4 u) { return charlie_sample(p, wo, u); }
+
+/* ---- holzschuch_pacanowski (Holzschuch & Pacanowski 2015: diffuse + diffraction + exponential-power reflection): kernels/holzschuch_pacanowski.h ---- */
+#ifndef HP_ENERGY
+#define HP_ENERGY 0
+#endif
+#ifndef HP_LAMBDA1
+#define HP_LAMBDA1 0.526
+#endif
+typedef struct {
+    real_t kd[CHANNELS];      /* diffuse albedo, [0, 1], default 0 */
+    real_t ks[CHANNELS];      /* reflection (Cook-Torrance) lobe scale, [0, 1e+06], default 1 */
+    real_t f0[CHANNELS];      /* Schlick Fresnel reflectance at normal incidence of the reflection lobe, [0, 1.2], default 1 */
+    real_t kw[CHANNELS];      /* diffraction lobe scale (the lobe is kw / lambda^4 S / E, lambda in um), [0, 1e+06], default 0 */
+    real_t a;                 /* diffraction lobe width a (1/um): S = 1 / (1 + f^2 / a^2)^2, (0, 100], default 1 */
+    real_t sigma;             /* exponential-power width sigma, [0.0001, 10], default 0.1 */
+    real_t p;                 /* exponential-power kurtosis: P22 ~ exp(-(tan^2 theta / sigma^2)^p), [0.1, 5], default 1 */
+    Tables tables;            /* the generated tables (clbrdf_tables.h) */
+} clbrdf_holzschuch_pacanowski_params;
+#define holzschuch_pacanowski_params clbrdf_holzschuch_pacanowski_params
+
+#include "holzschuch_pacanowski.h"
+
+FN clbrdf_holzschuch_pacanowski_params clbrdf_holzschuch_pacanowski_defaults(void)
+{
+    clbrdf_holzschuch_pacanowski_params p;
+    for (int c = 0; c < CHANNELS; ++c) p.kd[c] = (real_t)0.0;
+    for (int c = 0; c < CHANNELS; ++c) p.ks[c] = (real_t)1.0;
+    for (int c = 0; c < CHANNELS; ++c) p.f0[c] = (real_t)1.0;
+    for (int c = 0; c < CHANNELS; ++c) p.kw[c] = (real_t)0.0;
+    p.a = (real_t)1.0;
+    p.sigma = (real_t)0.1;
+    p.p = (real_t)1.0;
+    p.tables = 0;               /* set it: clbrdf_tables.h */
+    return p;
+}
+/* f(wo, wi) per channel (1/sr), without the cosine */
+FN spec clbrdf_holzschuch_pacanowski_eval(const clbrdf_holzschuch_pacanowski_params *p, vec3 wo, vec3 wi) { return holzschuch_pacanowski_eval(p, wo, wi); }
+/* density (1/sr) of wi under clbrdf_holzschuch_pacanowski_sample, given wo */
+FN real_t clbrdf_holzschuch_pacanowski_pdf(const clbrdf_holzschuch_pacanowski_params *p, vec3 wo, vec3 wi) { return holzschuch_pacanowski_pdf(p, wo, wi); }
+/* wi, weight = f cos(theta_i) / pdf per channel, and pdf; u: the first holzschuch_pacanowski_SAMPLE_DIMS numbers are used */
+FN BSample clbrdf_holzschuch_pacanowski_sample(const clbrdf_holzschuch_pacanowski_params *p, vec3 wo, rand4 u) { return holzschuch_pacanowski_sample(p, wo, u); }
 
 /* ---- low_smooth (Löw et al. 2012 smooth-surface model (projected deviation vector, ABC lobe)): kernels/low_smooth.h ---- */
 #ifndef LOW_DIFFUSE
@@ -247,11 +463,11 @@ FN clbrdf_low_smooth_params clbrdf_low_smooth_defaults(void)
     p.c2 = (real_t)1.0;
     return p;
 }
-/* f(wo, wi) cos-free BRDF value per channel (1/sr); directions in the local frame, z up */
+/* f(wo, wi) per channel (1/sr), without the cosine */
 FN spec clbrdf_low_smooth_eval(const clbrdf_low_smooth_params *p, vec3 wo, vec3 wi) { return low_smooth_eval(p, wo, wi); }
 /* density (1/sr) of wi under clbrdf_low_smooth_sample, given wo */
 FN real_t clbrdf_low_smooth_pdf(const clbrdf_low_smooth_params *p, vec3 wo, vec3 wi) { return low_smooth_pdf(p, wo, wi); }
-/* wi, weight = f cos(theta_i) / pdf per channel, pdf; u: low_smooth_SAMPLE_DIMS numbers in (0, 1) */
+/* wi, weight = f cos(theta_i) / pdf per channel, and pdf; u: the first low_smooth_SAMPLE_DIMS numbers are used */
 FN BSample clbrdf_low_smooth_sample(const clbrdf_low_smooth_params *p, vec3 wo, rand4 u) { return low_smooth_sample(p, wo, u); }
 
 /* ---- low_microfacet (Löw et al. 2012 microfacet ABC model (V-cavity G, dielectric Fresnel)): kernels/low_microfacet.h ---- */
@@ -279,12 +495,58 @@ FN clbrdf_low_microfacet_params clbrdf_low_microfacet_defaults(void)
     for (int c = 0; c < CHANNELS; ++c) p.kd[c] = (real_t)0.0;
     return p;
 }
-/* f(wo, wi) cos-free BRDF value per channel (1/sr); directions in the local frame, z up */
+/* f(wo, wi) per channel (1/sr), without the cosine */
 FN spec clbrdf_low_microfacet_eval(const clbrdf_low_microfacet_params *p, vec3 wo, vec3 wi) { return low_microfacet_eval(p, wo, wi); }
 /* density (1/sr) of wi under clbrdf_low_microfacet_sample, given wo */
 FN real_t clbrdf_low_microfacet_pdf(const clbrdf_low_microfacet_params *p, vec3 wo, vec3 wi) { return low_microfacet_pdf(p, wo, wi); }
-/* wi, weight = f cos(theta_i) / pdf per channel, pdf; u: low_microfacet_SAMPLE_DIMS numbers in (0, 1) */
+/* wi, weight = f cos(theta_i) / pdf per channel, and pdf; u: the first low_microfacet_SAMPLE_DIMS numbers are used */
 FN BSample clbrdf_low_microfacet_sample(const clbrdf_low_microfacet_params *p, vec3 wo, rand4 u) { return low_microfacet_sample(p, wo, u); }
+
+/* ---- sgd_bagher (SGD BRDF of Bagher et al. 2012 (the published fits' formula, all parameters per channel)): kernels/sgd_bagher.h ---- */
+#ifndef SGDB_KAP
+#define SGDB_KAP 0
+#endif
+typedef struct {
+    real_t rho_d[CHANNELS];   /* diffuse albedo rho_d, [0, 1], default 0.1 */
+    real_t rho_s[CHANNELS];   /* specular scale rho_s, [0, 100], default 0.5 */
+    real_t alpha[CHANNELS];   /* SGD alpha (shift and scale of the slopes), [1e-05, 1], default 0.01 */
+    real_t p[CHANNELS];       /* SGD power p, [0, 2], default 0.5 */
+    real_t kap[CHANNELS];     /* NDF scale kap, (0, 1e+08], computed when not given: 1 / (alpha Gamma(1-p, alpha)), the normalised NDF */
+    real_t f0[CHANNELS];      /* Fresnel fit F = f0 - f1 cos + (1 - cos)^5 (1 - f0), [0, 100], default 1 */
+    real_t f1[CHANNELS];      /* Fresnel fit f1, [-100, 100], default 0 */
+    real_t lam[CHANNELS];     /* shadowing fit lambda: G1 = clamp(1 + lambda (1 - exp(c max(0, theta - theta0)^k)), 0, 1), (0, 1e+09], default 1 */
+    real_t c[CHANNELS];       /* shadowing fit c, (0, 1e+38], default 1e-07 */
+    real_t k[CHANNELS];       /* shadowing fit exponent k, (0, 10000], default 30 */
+    real_t theta0[CHANNELS];  /* shadowing fit theta0 (radians), [-1.5708, 1.5708], default 0.5 */
+    Tables tables;            /* the generated tables (clbrdf_tables.h) */
+} clbrdf_sgd_bagher_params;
+#define sgd_bagher_params clbrdf_sgd_bagher_params
+
+#include "sgd_bagher.h"
+
+FN clbrdf_sgd_bagher_params clbrdf_sgd_bagher_defaults(void)
+{
+    clbrdf_sgd_bagher_params p;
+    for (int c = 0; c < CHANNELS; ++c) p.rho_d[c] = (real_t)0.1;
+    for (int c = 0; c < CHANNELS; ++c) p.rho_s[c] = (real_t)0.5;
+    for (int c = 0; c < CHANNELS; ++c) p.alpha[c] = (real_t)0.01;
+    for (int c = 0; c < CHANNELS; ++c) p.p[c] = (real_t)0.5;
+    for (int c = 0; c < CHANNELS; ++c) p.kap[c] = (real_t)1.0;
+    for (int c = 0; c < CHANNELS; ++c) p.f0[c] = (real_t)1.0;
+    for (int c = 0; c < CHANNELS; ++c) p.f1[c] = (real_t)0.0;
+    for (int c = 0; c < CHANNELS; ++c) p.lam[c] = (real_t)1.0;
+    for (int c = 0; c < CHANNELS; ++c) p.c[c] = (real_t)1e-07;
+    for (int c = 0; c < CHANNELS; ++c) p.k[c] = (real_t)30.0;
+    for (int c = 0; c < CHANNELS; ++c) p.theta0[c] = (real_t)0.5;
+    p.tables = 0;               /* set it: clbrdf_tables.h */
+    return p;
+}
+/* f(wo, wi) per channel (1/sr), without the cosine */
+FN spec clbrdf_sgd_bagher_eval(const clbrdf_sgd_bagher_params *p, vec3 wo, vec3 wi) { return sgd_bagher_eval(p, wo, wi); }
+/* density (1/sr) of wi under clbrdf_sgd_bagher_sample, given wo */
+FN real_t clbrdf_sgd_bagher_pdf(const clbrdf_sgd_bagher_params *p, vec3 wo, vec3 wi) { return sgd_bagher_pdf(p, wo, wi); }
+/* wi, weight = f cos(theta_i) / pdf per channel, and pdf; u: the first sgd_bagher_SAMPLE_DIMS numbers are used */
+FN BSample clbrdf_sgd_bagher_sample(const clbrdf_sgd_bagher_params *p, vec3 wo, rand4 u) { return sgd_bagher_sample(p, wo, u); }
 
 /* ---- schlick (Schlick 1994 customizable reflectance (SINGLE / DOUBLE, eq 12/15/17/18)): kernels/schlick.h ---- */
 #ifndef SCH_DOUBLE
@@ -329,11 +591,11 @@ FN clbrdf_schlick_params clbrdf_schlick_defaults(void)
     p.psi2 = (real_t)0.0;
     return p;
 }
-/* f(wo, wi) cos-free BRDF value per channel (1/sr); directions in the local frame, z up */
+/* f(wo, wi) per channel (1/sr), without the cosine */
 FN spec clbrdf_schlick_eval(const clbrdf_schlick_params *p, vec3 wo, vec3 wi) { return schlick_eval(p, wo, wi); }
 /* density (1/sr) of wi under clbrdf_schlick_sample, given wo */
 FN real_t clbrdf_schlick_pdf(const clbrdf_schlick_params *p, vec3 wo, vec3 wi) { return schlick_pdf(p, wo, wi); }
-/* wi, weight = f cos(theta_i) / pdf per channel, pdf; u: schlick_SAMPLE_DIMS numbers in (0, 1) */
+/* wi, weight = f cos(theta_i) / pdf per channel, and pdf; u: the first schlick_SAMPLE_DIMS numbers are used */
 FN BSample clbrdf_schlick_sample(const clbrdf_schlick_params *p, vec3 wo, rand4 u) { return schlick_sample(p, wo, u); }
 
 /* ---- ward (Ward 1992 anisotropic Gaussian (Walter 2005 sampler)): kernels/ward.h ---- */
@@ -359,11 +621,11 @@ FN clbrdf_ward_params clbrdf_ward_defaults(void)
     for (int c = 0; c < CHANNELS; ++c) p.kd[c] = (real_t)0.0;
     return p;
 }
-/* f(wo, wi) cos-free BRDF value per channel (1/sr); directions in the local frame, z up */
+/* f(wo, wi) per channel (1/sr), without the cosine */
 FN spec clbrdf_ward_eval(const clbrdf_ward_params *p, vec3 wo, vec3 wi) { return ward_eval(p, wo, wi); }
 /* density (1/sr) of wi under clbrdf_ward_sample, given wo */
 FN real_t clbrdf_ward_pdf(const clbrdf_ward_params *p, vec3 wo, vec3 wi) { return ward_pdf(p, wo, wi); }
-/* wi, weight = f cos(theta_i) / pdf per channel, pdf; u: ward_SAMPLE_DIMS numbers in (0, 1) */
+/* wi, weight = f cos(theta_i) / pdf per channel, and pdf; u: the first ward_SAMPLE_DIMS numbers are used */
 FN BSample clbrdf_ward_sample(const clbrdf_ward_params *p, vec3 wo, rand4 u) { return ward_sample(p, wo, u); }
 
 #endif

@@ -66,9 +66,9 @@ FN realN exppow_log1p_lambda(Tables T, realN p, realN lv)
     /* ghost row and column: table index (i + 1, j + 1) holds grid point (i, j); the integer
      * clamp keeps every read inside the table whatever the input (vector bounds: oclgrind
      * miscomputes clamp(intN, int, int)) */
-    exppow_int row = clamp(EXPPOW_TO_INT(fp), (exppow_int)0, (exppow_int)(EXPPOW_TABLE_NP - 2))
+    exppow_int row = iclamp(EXPPOW_TO_INT(fp), (exppow_int)0, (exppow_int)(EXPPOW_TABLE_NP - 2))
                      * (EXPPOW_TABLE_NV + 2)
-                     + clamp(EXPPOW_TO_INT(fv), (exppow_int)0, (exppow_int)(EXPPOW_TABLE_NV - 2));
+                     + iclamp(EXPPOW_TO_INT(fv), (exppow_int)0, (exppow_int)(EXPPOW_TABLE_NV - 2));
     tv -= fv;
     realN r0 = exppow_row(T, row, tv), r1 = exppow_row(T, row + (EXPPOW_TABLE_NV + 2), tv);
     realN r2 = exppow_row(T, row + 2 * (EXPPOW_TABLE_NV + 2), tv);

@@ -6,7 +6,7 @@
  *   global, constant    address spaces: nothing (CUDA: constant tables are __constant__)
  *   uint, ulong         unsigned 32- and 64-bit integers
  *   convert_T(x)        OpenCL conversions (float to integer rounds toward zero, as a C cast)
- *   rsqrt, clamp       as macros (clbrdf.h removes them, and the address-space and conversion
+ *   rsqrt, clamp, iclamp (clamp of integers)  as macros (clbrdf.h removes them, and the address-space and conversion
  *                       macros, once the sources are read)
  *   sqrt, exp, log, ... the precision's own overload: <tgmath.h> in C, <cmath> in C++, CUDA's
  *                       device overloads; never the native_* or fast-math functions
@@ -21,6 +21,7 @@
 #define CLBRDF_OPENCL 1
 #define FN inline
 #define ALWAYS_INLINE inline __attribute__((always_inline))
+#define iclamp clamp                    /* clamp of integers */
 
 #else /* C99, C++17, CUDA */
 #define CLBRDF_OPENCL 0
@@ -69,12 +70,14 @@ using std::isinf; using std::isnan;
 
 typedef uint32_t uint;
 typedef uint64_t ulong;
+#define convert_int(x) ((int)(x))
 #define convert_uint(x) ((uint)(x))
 #define convert_ulong(x) ((ulong)(x))
 #define convert_float(x) ((float)(x))
 #define convert_double(x) ((double)(x))
 #define rsqrt(x) (1 / sqrt(x))
 #define clamp(x, lo, hi) fmin(fmax((x), (lo)), (hi))
+#define iclamp(x, lo, hi) ((x) < (lo) ? (lo) : (x) > (hi) ? (hi) : (x))
 #endif
 
 #endif
