@@ -20,7 +20,12 @@
 #if defined(__OPENCL_C_VERSION__) || defined(__OPENCL_VERSION__)
 #define CLBRDF_OPENCL 1
 #define FN inline
+#if CLBRDF_NO_FORCED_INLINE     /* oclgrind: forced inlining of by-value structs emits an
+                                 * LLVM intrinsic (noalias.scope.decl) it cannot run */
+#define ALWAYS_INLINE inline
+#else
 #define ALWAYS_INLINE inline __attribute__((always_inline))
+#endif
 #define iclamp clamp                    /* clamp of integers */
 
 #else /* C99, C++17, CUDA */

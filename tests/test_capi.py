@@ -4,6 +4,7 @@ build run against the Python package: for every model the C API serves, in the c
 below, eval, pdf and sample (with the same uniform numbers) agree with ``clbrdf.Model`` (width 1)
 within ULPS units in the last place of the larger magnitude (or of the largest value of the
 batch, for values that cancel)."""
+import os
 import shutil
 import subprocess
 import sys
@@ -13,108 +14,22 @@ import numpy as np
 import pytest
 
 import clbrdf
-import clbrdf.build
-import clbrdf.models
+from clbrdf import capi
 from clbrdf.build import kernel_dir
+from clbrdf.device import compiler_error, list_devices
+from clbrdf.models import MODELS
 
 ROOT = Path(__file__).resolve().parent.parent
 KERNELS = kernel_dir()
-WARN = ["-Wall", "-Wextra", "-Wno-unused-parameter", "-Werror", "-pedantic"]
-# (case name, model, Python keywords): the C build gets the Python configuration's defines
-CASES = [
-    ("lambert", "lambert", {}),
-    ("lambert-rgb", "lambert", {"kd": [0.2, 0.5, 0.9], "channels": 3}),
-    ("ggx", "ggx", {"alpha": 0.3}),
-    ("ggx-schlick-rgb", "ggx", {"alpha": 0.15, "f0": [0.9, 0.6, 0.3], "channels": 3}),
-    ("ggx-aniso-conductor", "ggx", {"alpha_x": 0.05, "alpha_y": 0.4, "eta": 0.2, "k": 3.0}),
-    ("ggx-dielectric-diffuse", "ggx", {"alpha": 0.5, "eta": 1.5, "kd": 0.3}),
-    ("ggx-separable-ndf", "ggx", {"alpha": 0.2, "masking": "separable", "sampler": "ndf"}),
-    ("beckmann", "beckmann", {"alpha": 0.25}),
-    ("beckmann-vcavity", "beckmann", {"alpha": 0.6, "masking": "vcavity", "f0": 0.5}),
-    ("ashikhmin_shirley", "ashikhmin_shirley", {"nu": 20.0, "nv": 200.0, "rs": 0.3, "rd": 0.4}),
-    ("charlie", "charlie", {"alpha": 0.4}),
-    ("charlie-ashikhmin", "charlie", {"alpha": 0.2, "visibility": "ashikhmin"}),
-    ("low_smooth", "low_smooth", {}),
-    ("low_microfacet", "low_microfacet", {}),
-    ("schlick", "schlick", {}),
-    ("schlick-aniso", "schlick", {"p": 0.2, "psi": 0.5}),
-    ("ward", "ward", {"alpha_x": 0.1, "alpha_y": 0.3, "kd": 0.2}),
-    # models that read the generated tables (clbrdf_tables.h loads them)
-    ("gtr", "gtr", {"alpha": 0.3, "gamma": 1.5}),
-    ("sgd", "sgd", {"alpha": 0.2, "p": 0.8}),
-    ("exppow", "exppow", {"alpha": 0.3, "p": 0.7, "f0": 0.2}),
-    ("holzschuch_pacanowski", "holzschuch_pacanowski", {}),
-    ("sgd_bagher", "sgd_bagher", {}),
-]
-TABLES = [n for n, s in clbrdf.models.MODELS.items()
-          if clbrdf.build.program_source(s.configure(channels=1)[0], "single", 1)[1]]
-ULPS = {"single": 64, "double": 64}   # measured: at most 35 (single), 49 (double; Beckmann pdf,
-                                      # anisotropic GGX sampled wi.z)
+WARN = capi.WARN
+# measured: at most 35 (single), 49 (double; Beckmann's pdf, anisotropic GGX's sampled wi.z)
+ULPS = {"single": 64, "double": 64}
 N = 400
-
-PROGRAM = r"""
-#include <stdio.h>
-#include "clbrdf.h"
-#include "clbrdf_tables.h"
-int main(void)
-{
-    clbrdf_%(prefix)s_params p = clbrdf_%(model)s_defaults();
-%(assign)s
-    double a[10];
-    while (scanf("%%lf %%lf %%lf %%lf %%lf %%lf %%lf %%lf %%lf %%lf", a, a + 1, a + 2, a + 3, a + 4,
-                 a + 5, a + 6, a + 7, a + 8, a + 9) == 10) {
-        vec3 wo = v3((real_t)a[0], (real_t)a[1], (real_t)a[2]);
-        vec3 wi = v3((real_t)a[3], (real_t)a[4], (real_t)a[5]);
-        rand4 u = {(real_t)a[6], (real_t)a[7], (real_t)a[8], (real_t)a[9]};
-        spec f = clbrdf_%(model)s_eval(&p, wo, wi);
-        real_t pdf = clbrdf_%(model)s_pdf(&p, wo, wi);
-        BSample s = clbrdf_%(model)s_sample(&p, wo, u);
-        for (int c = 0; c < CHANNELS; ++c) printf("%%.17g ", (double)f.c[c]);
-        printf("%%.17g %%.17g %%.17g %%.17g ", (double)pdf, (double)s.wi.x, (double)s.wi.y,
-               (double)s.wi.z);
-        for (int c = 0; c < CHANNELS; ++c) printf("%%.17g ", (double)s.weight.c[c]);
-        printf("%%.17g\n", (double)s.pdf);
-    }
-    return 0;
-}
-"""
+TABLES = [n for n in MODELS if capi.uses_tables(clbrdf.Model(n))]
 
 
 def _have(tool):
     return shutil.which(tool) is not None
-
-
-def _assign(m) -> str:
-    lines = []
-    if m.name in TABLES:
-        lines.append(f'    p.tables = clbrdf_tables_load("{KERNELS / "data"}");\n'
-                     f'    if (!p.tables) return 1;')
-    for k, v in m.params.items():
-        v = np.asarray(v, np.float64)
-        if k in m.config.spectral:
-            vals = np.broadcast_to(v, (m.channels,))
-            lines += [f"    p.{k}[{c}] = (real_t){float(x)!r};" for c, x in enumerate(vals)]
-        else:
-            lines.append(f"    p.{k} = (real_t){float(v)!r};")
-    return "\n".join(lines)
-
-
-def _defines(m, precision) -> list:
-    return ([f"-D{k}={v}" for k, v in m.config.defines] + [f"-DCHANNELS={m.channels}",
-            f"-DCLBRDF_DOUBLE={int(precision == 'double')}"])
-
-
-def _directions(rng, n):
-    """Unit wo, wi above the horizon: uniform, grazing (mu down to 1e-4) and mirror pairs."""
-    def hemi(k, lo=0.0):
-        mu = rng.uniform(lo, 1, k)
-        mu[: k // 4] = 10 ** rng.uniform(-4, -1, k // 4)
-        phi = rng.uniform(0, 2 * np.pi, k)
-        s = np.sqrt(1 - mu * mu)
-        return np.stack([s * np.cos(phi), s * np.sin(phi), mu], -1)
-    wo, wi = hemi(n), hemi(n)
-    wi[: n // 8] = wo[: n // 8] * [-1, -1, 1]           # mirror pairs
-    return wo, wi
 
 
 def test_generated_header_is_current():
@@ -123,59 +38,78 @@ def test_generated_header_is_current():
     assert r.returncode == 0, r.stderr
 
 
+def test_every_model_has_a_case():
+    assert {c[1] for c in capi.CASES} == set(MODELS)
+
+
 @pytest.mark.skipif(not _have("gcc"), reason="gcc not found")
 @pytest.mark.parametrize("precision", ["single", "double"])
-@pytest.mark.parametrize("case", [c[0] for c in CASES])
+@pytest.mark.parametrize("case", [c[0] for c in capi.CASES])
 def test_c99_agrees_with_python(case, precision, tmp_path):
-    _, model, kw = next(c for c in CASES if c[0] == case)
-    m = clbrdf.Model(model, precision=precision, width=1, **kw)
-    src = tmp_path / "t.c"
-    src.write_text(PROGRAM % {"prefix": m.spec.prefix, "model": model, "assign": _assign(m)})
-    exe = tmp_path / "t"
-    r = subprocess.run(["gcc", "-std=c99", *WARN, "-O2", f"-I{KERNELS}", *_defines(m, precision),
-                        str(src), "-lm", "-o", str(exe)], capture_output=True, text=True)
-    assert r.returncode == 0, r.stderr[-3000:]
-    rng = np.random.default_rng(7)
-    wo, wi = _directions(rng, N)
-    u = m.random(N, seed=3)
-    dt = np.float32 if precision == "single" else np.float64
-    # the inputs as the C program reads them: rounded to the precision, then printed exactly
-    wo, wi, u = (np.asarray(x, dt).astype(np.float64) for x in (wo, wi, u))
-    text = "\n".join(" ".join(repr(float(x)) for x in row)
-                     for row in np.concatenate([wo, wi, u], 1))
-    out = subprocess.run([str(exe)], input=text, capture_output=True, text=True, check=True)
-    got = np.array([[float(x) for x in line.split()] for line in out.stdout.splitlines()])
-    C = m.channels
-    f_py = np.asarray(m.eval(wo, wi), np.float64).reshape(N, C)
-    pdf_py = np.asarray(m.pdf(wo, wi), np.float64).reshape(N)
-    s_wi, s_w, s_pdf = m.sample(wo, u)
-    s_wi = np.asarray(s_wi, np.float64).reshape(N, 3)
-    want = np.concatenate([f_py, pdf_py[:, None], s_wi, np.asarray(s_w, np.float64).reshape(N, C),
-                           np.asarray(s_pdf, np.float64).reshape(N, 1)], 1)
-    # a sampled wi is a difference of unit vectors (reflect): its z is known to a few eps
-    # absolutely, and a weight or density that goes like a power of wi.z near the horizon
-    # (G1(wi), the cosine lobe) inherits |dz| / z relatively: that much more is allowed there
-    dz = np.abs(got[:, C + 3] - s_wi[:, 2])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        cond = np.where(dz > 0, 4 * dz / np.maximum(np.abs(s_wi[:, 2]), 1e-300), 0.0)
+    m = capi.model(case, precision)
+    wo, wi, u = capi.inputs(N, m=m)
+    got = capi.run_c(case, precision, wo, wi, u, workdir=tmp_path)
+    want = capi.run_python(case, precision, wo, wi, u)
     assert got.shape == want.shape, (got.shape, want.shape)
-    eps = float(np.finfo(dt).eps)
-    names = [f"f{c}" for c in range(C)] + ["pdf", "wi.x", "wi.y", "wi.z"] + \
-        [f"weight{c}" for c in range(C)] + ["sample pdf"]
-    worst = {}
-    for j, name in enumerate(names):
-        a, b = got[:, j], want[:, j]
-        assert np.all(np.isfinite(a)), name
-        scale = np.maximum(np.maximum(np.abs(a), np.abs(b)),
-                           np.max(np.abs(b)) * (eps if "wi" not in name else 1.0))
-        if "wi" in name:                # unit vectors: units of 1
-            scale = np.ones_like(scale)
-        err = np.abs(a - b)
-        if name.startswith(("weight", "sample")):
-            err = np.maximum(err - cond * np.abs(b), 0)
-        ulps = err / (eps * scale)
-        worst[name] = float(ulps.max())
+    worst = capi.ulps(got, want, m.channels, precision)
     assert max(worst.values()) <= ULPS[precision], worst
+
+
+def _platforms():
+    return [f"{i.platform_index}:{i.device_index}" for i in list_devices()
+            if compiler_error((i.platform_index, i.device_index)) is None]
+
+
+@pytest.mark.skipif(not _have("gcc"), reason="gcc not found")
+@pytest.mark.parametrize("device", _platforms())
+@pytest.mark.parametrize("case", ["ggx-schlick-rgb", "beckmann", "charlie", "gtr",
+                                  "holzschuch_pacanowski", "schlick-aniso"])
+def test_c_api_on_every_platform(device, case, tmp_path):
+    """The C API compiled as OpenCL C in a user's kernel, on every platform present: bit for
+    bit the Python package's own kernels at width 1 on the same device (one source), and within
+    ULPS of the C99 build (single, and double where the device has fp64): the per-platform
+    agreement that docs/kernels.md records (scripts/capi_platforms.py)."""
+    from clbrdf.device import get_device
+    precisions = ["single"] + (["double"] if get_device(device).info.has_fp64 else [])
+    for precision in precisions:
+        m = capi.model(case, precision)
+        wo, wi, u = capi.inputs(128, m=m)
+        got = capi.run_opencl(case, precision, wo, wi, u, device=device)
+        assert np.array_equal(got, capi.run_python(case, precision, wo, wi, u, device=device))
+        want = capi.run_c(case, precision, wo, wi, u, workdir=tmp_path)
+        worst = capi.ulps(got, want, m.channels, precision)
+        assert max(worst.values()) <= ULPS[precision], (precision, worst)
+
+
+OCLGRIND = """
+import sys, numpy as np
+from clbrdf import capi
+got = capi.run_opencl(sys.argv[1], "single", *capi.inputs(16, m=capi.model(sys.argv[1], "single")),
+                      device="oclgrind")
+np.save(sys.argv[2], got)
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not (_have("oclgrind") and _have("gcc")), reason="oclgrind not installed")
+@pytest.mark.parametrize("case", ["ggx-schlick-rgb", "gtr", "holzschuch_pacanowski"])
+def test_c_api_clean_under_oclgrind(case, tmp_path):
+    """The C API in a user's OpenCL kernel under oclgrind (16 inputs): no out-of-bounds access,
+    uninitialised read or race reported, and the values agree with the C99 build."""
+    out = tmp_path / "got.npy"
+    env = dict(os.environ, CLBRDF_BUILD_OPTIONS="-cl-opt-disable -DCLBRDF_SEPARATE_SINCOS=1 "
+                                         "-DCLBRDF_NO_FORCED_INLINE=1")
+    r = subprocess.run(["oclgrind", "--uninitialized", "--data-races",
+                        sys.executable, "-c", OCLGRIND, case, str(out)],
+                       capture_output=True, text=True, env=env, timeout=600)
+    assert r.returncode == 0, r.stderr[-3000:]
+    report = [ln for ln in r.stderr.splitlines()
+              if any(w in ln for w in ("Invalid", "Uninitialized", "race", "error"))]
+    assert not report, "\n".join(report[:20])
+    m = capi.model(case, "single")
+    want = capi.run_c(case, "single", *capi.inputs(16, m=m), workdir=tmp_path)
+    worst = capi.ulps(np.load(out), want, m.channels, "single")
+    assert max(worst.values()) <= ULPS["single"], worst
 
 
 @pytest.mark.skipif(not _have("gcc"), reason="gcc not found")
@@ -188,10 +122,10 @@ def test_c_api_compiles_warning_free(compiler, std, precision, dist, tmp_path):
     ext = "cpp" if compiler == "g++" else "c"
     src = tmp_path / f"all.{ext}"
     calls = []
-    others = [n for n, s in clbrdf.models.MODELS.items() if s.prefix != "microfacet"]
-    with_tables = {clbrdf.models.MODELS[n].prefix for n in TABLES}
+    others = [n for n, s in MODELS.items() if s.prefix != "microfacet"]
+    with_tables = {MODELS[n].prefix for n in TABLES}
     for model in [dist] + others:
-        set_t = " p.tables = T;" if clbrdf.models.MODELS[model].prefix in with_tables else ""
+        set_t = " p.tables = T;" if MODELS[model].prefix in with_tables else ""
         calls.append(f"    {{ clbrdf_{model}_params p = clbrdf_{model}_defaults();{set_t}"
                      f" spec f = clbrdf_{model}_eval(&p, wo, wi);"
                      f" BSample s = clbrdf_{model}_sample(&p, wo, clbrdf_random(1, 2, 3, 4));"
@@ -266,7 +200,7 @@ def test_c_api_as_opencl_c(std):
     import pyopencl as cl
     dev = clbrdf.get_device()
     prg = cl.Program(dev.context, OPENCL).build(options=[f"-cl-std={std}", "-I", str(KERNELS)])
-    wo, wi = _directions(np.random.default_rng(1), 256)
+    wo, wi, _ = capi.inputs(256, seed=1)
     buf = np.concatenate([wo, wi], 1).astype(np.float32)
     mf = cl.mem_flags
     b_in = cl.Buffer(dev.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=buf)
@@ -286,7 +220,7 @@ def test_examples_run_and_agree_with_python():
     """bash examples/run.sh: the C99 and OpenCL albedo programs draw the Python package's samples
     (clbrdf_random2) and agree with `clbrdf albedo` to 1e-5 relative; the energy-compensation
     example's lookup equals clbrdf.Table.lookup."""
-    env = dict(__import__("os").environ, CLBRDF_PYTHON=sys.executable)
+    env = dict(os.environ, CLBRDF_PYTHON=sys.executable)
     r = subprocess.run(["bash", str(ROOT / "examples" / "run.sh")], capture_output=True,
                        text=True, env=env)
     assert r.returncode == 0, r.stdout + r.stderr

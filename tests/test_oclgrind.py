@@ -65,7 +65,8 @@ ERRORS = ("Invalid read", "Invalid write", "Uninitialized", "data race", "FATAL"
 def test_kernels_clean_under_oclgrind(tmp_path, name, width, precision):
     script = tmp_path / "run.py"
     script.write_text(SCRIPT)
-    env = dict(os.environ, CLBRDF_BUILD_OPTIONS="-cl-opt-disable -DCLBRDF_SEPARATE_SINCOS=1")
+    env = dict(os.environ, CLBRDF_BUILD_OPTIONS="-cl-opt-disable -DCLBRDF_SEPARATE_SINCOS=1 "
+                                         "-DCLBRDF_NO_FORCED_INLINE=1")
     r = subprocess.run(["oclgrind", "--data-races", "--uninitialized", sys.executable, "-W", "ignore",
                         str(script), name, str(width), precision],
                        capture_output=True, text=True, env=env, timeout=1800)
