@@ -61,7 +61,23 @@ FN rand4 clbrdf_random2(uint sample, uint point, uint stream, ulong seed)
 }   /* namespace clbrdf */
 #endif
 
-/* the portability macros are not needed past this point: leave the names to the user */
+/* the helper macros are not needed past this point: leave the names to the user (the
+ * configuration macros MF_*, AS_*, ... and CHANNELS, CLBRDF_DOUBLE stay) */
+#undef W
+#undef sel
+#undef CAT
+#undef CAT_
+#undef HSUM
+#undef HSUM4
+#undef HSUM8
+#undef FIRST_LANE
+#undef LANE_IDS
+#undef TO_MASK
+#undef VLOAD
+#undef VSTORE
+#undef REAL
+#undef MASK
+#undef MF
 #if !CLBRDF_OPENCL
 #undef clamp
 #undef iclamp

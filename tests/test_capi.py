@@ -135,7 +135,9 @@ def test_c_api_compiles_warning_free(compiler, std, precision, dist, tmp_path):
                    + "int main(void)\n{\n    vec3 wo = v3(0.6f, 0.0f, 0.8f), wi = v3(-0.6f, 0.0f, 0.8f);\n"
                    f"    float *T = clbrdf_tables_load(\"{KERNELS / 'data'}\");\n"
                    "    if (!T) return 1;\n"
-                   "    double sum = 0;\n" + "\n".join(calls)
+                   "    double sum = 0;\n"
+                   "    int W = 1, sel = 2, CAT = 3, clamp = 4, rsqrt = 5, global = 6;  /* the user's names */\n"
+                   "    sum += W + sel + CAT + clamp + rsqrt + global;\n" + "\n".join(calls)
                    + "\n    printf(\"%g\\n\", sum);\n    free(T);\n    return 0;\n}\n")
     exe = tmp_path / "all"
     r = subprocess.run([compiler, f"-std={std}", *WARN, "-O2", f"-I{KERNELS}", "-DCHANNELS=3",
