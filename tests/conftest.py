@@ -70,3 +70,24 @@ def model_cache(clbrdf_device):
             cache[key] = clbrdf.Model(name, device=clbrdf_device, **kw)
         return cache[key]
     return get
+
+
+# Options for programs run under oclgrind: no optimisation, sin and cos apart (its
+# uninitialised-memory checker rejects sincos's pointer), and no forced inlining (forced inlining
+# of by-value structs emits llvm.experimental.noalias.scope.decl, which oclgrind cannot run).
+OCLGRIND_BUILD_OPTIONS = "-cl-opt-disable -DCLBRDF_SEPARATE_SINCOS=1 -DCLBRDF_NO_FORCED_INLINE=1"
+
+
+@pytest.fixture
+def oclgrind_serial():
+    """One oclgrind run at a time across pytest workers: a run takes up to 11 GB (RGB models in
+    double precision), and two at once were killed for memory on a 24 GB machine."""
+    import fcntl
+    import tempfile
+    from pathlib import Path
+    with open(Path(tempfile.gettempdir()) / "clbrdf-oclgrind.lock", "w") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)

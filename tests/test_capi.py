@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import OCLGRIND_BUILD_OPTIONS
 
 import clbrdf
 from clbrdf import capi
@@ -93,12 +94,11 @@ np.save(sys.argv[2], got)
 @pytest.mark.slow
 @pytest.mark.skipif(not (_have("oclgrind") and _have("gcc")), reason="oclgrind not installed")
 @pytest.mark.parametrize("case", ["ggx-schlick-rgb", "gtr", "holzschuch_pacanowski"])
-def test_c_api_clean_under_oclgrind(case, tmp_path):
+def test_c_api_clean_under_oclgrind(case, tmp_path, oclgrind_serial):
     """The C API in a user's OpenCL kernel under oclgrind (16 inputs): no out-of-bounds access,
     uninitialised read or race reported, and the values agree with the C99 build."""
     out = tmp_path / "got.npy"
-    env = dict(os.environ, CLBRDF_BUILD_OPTIONS="-cl-opt-disable -DCLBRDF_SEPARATE_SINCOS=1 "
-                                         "-DCLBRDF_NO_FORCED_INLINE=1")
+    env = dict(os.environ, CLBRDF_BUILD_OPTIONS=OCLGRIND_BUILD_OPTIONS)
     r = subprocess.run(["oclgrind", "--uninitialized", "--data-races",
                         sys.executable, "-c", OCLGRIND, case, str(out)],
                        capture_output=True, text=True, env=env, timeout=600)

@@ -1,7 +1,9 @@
 """Every kernel under oclgrind (Debian package `oclgrind`): no out-of-bounds access,
 uninitialised read or data race, at scalar and vector widths, both precisions.
 
-Slow (about a minute per configuration); skipped where oclgrind is not installed.
+Slow (from 20 s to over 20 minutes per configuration, up to 11 GB each: one at a time, the
+oclgrind_serial fixture); skipped where oclgrind is not installed. The programs are built with
+conftest.OCLGRIND_BUILD_OPTIONS.
 """
 import os
 import shutil
@@ -10,6 +12,7 @@ import sys
 import textwrap
 
 import pytest
+from conftest import OCLGRIND_BUILD_OPTIONS
 
 pytestmark = [pytest.mark.slow,
               pytest.mark.skipif(shutil.which("oclgrind") is None, reason="oclgrind not installed")]
@@ -62,11 +65,10 @@ ERRORS = ("Invalid read", "Invalid write", "Uninitialized", "data race", "FATAL"
     ("low_smooth_rgb", 4, "single"), ("low_microfacet_rgb", 1, "double"),
     ("holzschuch_pacanowski_rgb", 4, "single"), ("sgd_bagher_rgb", 1, "double"), ("gtr", 4, "single"),
     ("sgd", 1, "double"), ("ashikhmin_shirley_rgb", 4, "single"), ("ashikhmin_shirley", 1, "double")])
-def test_kernels_clean_under_oclgrind(tmp_path, name, width, precision):
+def test_kernels_clean_under_oclgrind(tmp_path, name, width, precision, oclgrind_serial):
     script = tmp_path / "run.py"
     script.write_text(SCRIPT)
-    env = dict(os.environ, CLBRDF_BUILD_OPTIONS="-cl-opt-disable -DCLBRDF_SEPARATE_SINCOS=1 "
-                                         "-DCLBRDF_NO_FORCED_INLINE=1")
+    env = dict(os.environ, CLBRDF_BUILD_OPTIONS=OCLGRIND_BUILD_OPTIONS)
     r = subprocess.run(["oclgrind", "--data-races", "--uninitialized", sys.executable, "-W", "ignore",
                         str(script), name, str(width), precision],
                        capture_output=True, text=True, env=env, timeout=1800)
