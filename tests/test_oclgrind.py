@@ -63,7 +63,10 @@ ERRORS = ("Invalid read", "Invalid write", "Uninitialized", "data race", "FATAL"
     ("beckmann", 4, "single"), ("lambert", 1, "double"), ("ggx_rgb", 4, "single"),
     ("ggx_rgb", 1, "double"), ("schlick_rgb", 4, "single"), ("schlick_rgb", 1, "double"),
     ("low_smooth_rgb", 4, "single"), ("low_microfacet_rgb", 1, "double"),
-    ("holzschuch_pacanowski_rgb", 4, "single"), ("sgd_bagher_rgb", 1, "double"), ("gtr", 4, "single"),
+    ("holzschuch_pacanowski_rgb", 4, "single"), pytest.param("sgd_bagher_rgb", 1, "double", marks=pytest.mark.skipif(
+        os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") < 48 << 30,
+        reason="needs more memory under oclgrind than this machine has: 22.5 GB and growing "
+               "after 10 minutes on a 24 GB machine (2026-12-03)")), ("gtr", 4, "single"),
     ("sgd", 1, "double"), ("ashikhmin_shirley_rgb", 4, "single"), ("ashikhmin_shirley", 1, "double")])
 def test_kernels_clean_under_oclgrind(tmp_path, name, width, precision, oclgrind_serial):
     script = tmp_path / "run.py"
