@@ -55,18 +55,20 @@ SCRIPT = textwrap.dedent("""
     print('done')
 """)
 
+# Without forced inlining (OCLGRIND_BUILD_OPTIONS) two RGB double configurations outgrow a 24 GB
+# machine under oclgrind (2026-12-03): sgd_bagher_rgb 22.5 GB and growing after 10 minutes,
+# schlick_rgb out of memory at 19.6 GB after 11 minutes under a 20 GB limit.
+BIG = pytest.mark.skipif(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") < 48 << 30,
+                         reason="needs more than 20 GB under oclgrind (measured on 24 GB)")
 ERRORS = ("Invalid read", "Invalid write", "Uninitialized", "data race", "FATAL", "out of bounds")
 
 
 @pytest.mark.parametrize("name,width,precision", [
     ("ggx", 1, "single"), ("ggx", 4, "single"), ("ggx", 2, "double"),
     ("beckmann", 4, "single"), ("lambert", 1, "double"), ("ggx_rgb", 4, "single"),
-    ("ggx_rgb", 1, "double"), ("schlick_rgb", 4, "single"), ("schlick_rgb", 1, "double"),
+    ("ggx_rgb", 1, "double"), ("schlick_rgb", 4, "single"), pytest.param("schlick_rgb", 1, "double", marks=BIG),
     ("low_smooth_rgb", 4, "single"), ("low_microfacet_rgb", 1, "double"),
-    ("holzschuch_pacanowski_rgb", 4, "single"), pytest.param("sgd_bagher_rgb", 1, "double", marks=pytest.mark.skipif(
-        os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") < 48 << 30,
-        reason="needs more memory under oclgrind than this machine has: 22.5 GB and growing "
-               "after 10 minutes on a 24 GB machine (2026-12-03)")), ("gtr", 4, "single"),
+    ("holzschuch_pacanowski_rgb", 4, "single"), pytest.param("sgd_bagher_rgb", 1, "double", marks=BIG), ("gtr", 4, "single"),
     ("sgd", 1, "double"), ("ashikhmin_shirley_rgb", 4, "single"), ("ashikhmin_shirley", 1, "double")])
 def test_kernels_clean_under_oclgrind(tmp_path, name, width, precision, oclgrind_serial):
     script = tmp_path / "run.py"
