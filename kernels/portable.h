@@ -20,8 +20,8 @@
 #if defined(__OPENCL_C_VERSION__) || defined(__OPENCL_VERSION__)
 #define CLBRDF_OPENCL 1
 #define FN inline
-#if CLBRDF_NO_FORCED_INLINE     /* oclgrind: forced inlining of by-value structs emits an
-                                 * LLVM intrinsic (noalias.scope.decl) it cannot run */
+#if CLBRDF_NO_FORCED_INLINE     /* oclgrind: forced inlining emits an LLVM intrinsic
+                                 * (noalias.scope.decl) that it cannot run */
 #define ALWAYS_INLINE inline
 #else
 #define ALWAYS_INLINE inline __attribute__((always_inline))

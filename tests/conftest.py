@@ -73,8 +73,9 @@ def model_cache(clbrdf_device):
 
 
 # Options for programs run under oclgrind: no optimisation, sin and cos apart (its
-# uninitialised-memory checker rejects sincos's pointer), and no forced inlining (forced inlining
-# of by-value structs emits llvm.experimental.noalias.scope.decl, which oclgrind cannot run).
+# uninitialised-memory checker rejects sincos's pointer), and no forced inlining (it emits
+# llvm.experimental.noalias.scope.decl even at -cl-opt-disable, which oclgrind cannot run: every
+# configuration failed on it before, checked at commit 62eb771).
 OCLGRIND_BUILD_OPTIONS = "-cl-opt-disable -DCLBRDF_SEPARATE_SINCOS=1 -DCLBRDF_NO_FORCED_INLINE=1"
 
 
