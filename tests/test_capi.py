@@ -230,3 +230,6 @@ def test_examples_run_and_agree_with_python():
     assert "agree" in lines["c99_albedo"] and "agree" in lines["energy_compensation"], r.stdout
     if Path("/usr/include/CL/cl.h").exists():
         assert "agree" in lines["opencl_albedo"], r.stdout
+    if _have("nvcc"):               # built here; run (and compared) where a CUDA device answers
+        assert "built; not run" in lines["cuda_albedo"] or "agree" in lines["cuda_albedo"], \
+            r.stdout
