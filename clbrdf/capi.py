@@ -44,6 +44,8 @@ CASES = [
     ("exppow", "exppow", {"alpha": 0.3, "p": 0.7, "f0": 0.2}),
     ("holzschuch_pacanowski", "holzschuch_pacanowski", {}),
     ("sgd_bagher", "sgd_bagher", {}),
+    # a published fit (RGB, every parameter from the preset)
+    ("ashikhmin_shirley-preset", "ashikhmin_shirley", {"preset": "alum-bronze:E1"}),
 ]
 WARN = ["-Wall", "-Wextra", "-Wno-unused-parameter", "-Werror", "-pedantic"]
 
@@ -173,8 +175,9 @@ def run_c(name: str, precision: str, wo, wi, u, workdir=None, compiler: str = "g
     return np.array([[float(x) for x in ln.split()] for ln in out.stdout.splitlines()])
 
 
-def run_opencl(name: str, precision: str, wo, wi, u, device=None) -> np.ndarray:
-    """The outputs of the C API compiled as OpenCL C 1.2 on ``device`` (a clbrdf selector)."""
+def run_opencl(name: str, precision: str, wo, wi, u, device=None,
+               std: str = "CL1.2") -> np.ndarray:
+    """The outputs of the C API compiled as OpenCL C (``std``) on ``device`` (a selector)."""
     import pyopencl as cl
     from .device import get_device
     dev = get_device(device)
@@ -182,7 +185,7 @@ def run_opencl(name: str, precision: str, wo, wi, u, device=None) -> np.ndarray:
     src = CL_PROGRAM % {"prefix": m.spec.prefix, "model": m.name, "assign": _assign(m),
                         "body": _BODY % {"model": m.name}}
     # CLBRDF_BUILD_OPTIONS as for the package's programs (e.g. -cl-opt-disable for oclgrind)
-    opts = ["-cl-std=CL1.2", "-I", str(kernel_dir()), *defines(m),
+    opts = [f"-cl-std={std}", "-I", str(kernel_dir()), *defines(m),
             *os.environ.get("CLBRDF_BUILD_OPTIONS", "").split()]
     prg = cl.Program(dev.context, src).build(options=opts)
     dt = np.float64 if precision == "double" else np.float32

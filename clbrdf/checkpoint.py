@@ -109,13 +109,18 @@ class Checkpoint:
                     sub, (i1 - i0,), [w[i0:i1] for w in wo], estimator=estimator,
                     samples=samples, seed=seed, qmc=qmc, progress=False, point0=i0)
                 seconds += secs
-                _write_atomic(f, lambda p, e=e, s=s: np.savez(open(p, "wb"), E=e, stderr=s))
+                _write_atomic(f, lambda p, e=e, s=s: _save(p, e, s))
                 self.computed += 1
             ests.append(e)
             errs.append(s)
             bar.update((i1 - i0) * plan.samples)
         bar.close()
         return np.concatenate(ests), np.concatenate(errs), plan, seconds
+
+
+def _save(path: Path, e, s) -> None:
+    with open(path, "wb") as fh:        # a file object: np.savez would append .npz to a path
+        np.savez(fh, E=e, stderr=s)
 
 
 def _pshape(m, k, shape):

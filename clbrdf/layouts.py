@@ -116,14 +116,12 @@ def _run_kc(model, axl, q, fixed, **kw):
     avg = q.endswith("_avg")
     plain = "E_avg" if avg else "E"
     fixed = dict(fixed or {})
-    names = [a["name"] for a in axl]
     fres = [a for a in axl if a["name"] in FRESNEL_AXES]
     rest = [a for a in axl if a["name"] not in FRESNEL_AXES]
     one = {k: v for k, v in fixed.items() if k not in FRESNEL_AXES and k != "fresnel"}
     one["fresnel"] = "one"
     vF, sF, t = _run(model, axl, [plain], fixed, **kw)
-    v1, s1, _ = _run(model, rest, [plain], one, **kw) if rest else _run(
-        model, [], [plain], one, **kw)
+    v1, s1, _ = _run(model, rest, [plain], one, **kw)
     keep = [a for a in rest if a["name"] not in ("mu", "theta")]
     if avg:
         va, sa = v1, s1

@@ -48,96 +48,29 @@ FN BSample clbrdf_lambert_sample(const clbrdf_lambert_params *p, vec3 wo, rand4 
 #define CLBRDF_MF_gtr 4
 #define CLBRDF_MF_sgd 5
 #if CAT(CLBRDF_MF_, MF_DIST) == CLBRDF_MF_ggx
-#ifndef MF_ANISO
-#define MF_ANISO 0
-#endif
-#ifndef MF_MASKING
-#define MF_MASKING MASKING_CORRELATED
-#endif
-#ifndef MF_FRESNEL
-#define MF_FRESNEL FRESNEL_ONE
-#endif
-#ifndef MF_DIFFUSE
-#define MF_DIFFUSE 0
-#endif
 #ifndef MF_SAMPLER
 #define MF_SAMPLER SAMPLER_VNDF
-#endif
-#ifndef MF_KS
-#define MF_KS 0
-#endif
-#ifndef MF_F90
-#define MF_F90 0
 #endif
 #elif CAT(CLBRDF_MF_, MF_DIST) == CLBRDF_MF_beckmann
-#ifndef MF_ANISO
-#define MF_ANISO 0
-#endif
-#ifndef MF_MASKING
-#define MF_MASKING MASKING_CORRELATED
-#endif
-#ifndef MF_FRESNEL
-#define MF_FRESNEL FRESNEL_ONE
-#endif
-#ifndef MF_DIFFUSE
-#define MF_DIFFUSE 0
-#endif
 #ifndef MF_SAMPLER
 #define MF_SAMPLER SAMPLER_VNDF
 #endif
-#ifndef MF_KS
-#define MF_KS 0
-#endif
-#ifndef MF_F90
-#define MF_F90 0
-#endif
 #elif CAT(CLBRDF_MF_, MF_DIST) == CLBRDF_MF_exppow
-#ifndef MF_ANISO
-#define MF_ANISO 0
-#endif
-#ifndef MF_MASKING
-#define MF_MASKING MASKING_CORRELATED
-#endif
-#ifndef MF_FRESNEL
-#define MF_FRESNEL FRESNEL_ONE
-#endif
-#ifndef MF_DIFFUSE
-#define MF_DIFFUSE 0
-#endif
 #ifndef MF_SAMPLER
 #define MF_SAMPLER SAMPLER_NDF
-#endif
-#ifndef MF_KS
-#define MF_KS 0
-#endif
-#ifndef MF_F90
-#define MF_F90 0
 #endif
 #define MF_SHAPE p
 #elif CAT(CLBRDF_MF_, MF_DIST) == CLBRDF_MF_gtr
-#ifndef MF_ANISO
-#define MF_ANISO 0
-#endif
-#ifndef MF_MASKING
-#define MF_MASKING MASKING_CORRELATED
-#endif
-#ifndef MF_FRESNEL
-#define MF_FRESNEL FRESNEL_ONE
-#endif
-#ifndef MF_DIFFUSE
-#define MF_DIFFUSE 0
-#endif
 #ifndef MF_SAMPLER
 #define MF_SAMPLER SAMPLER_NDF
-#endif
-#ifndef MF_KS
-#define MF_KS 0
-#endif
-#ifndef MF_F90
-#define MF_F90 0
 #endif
 #define MF_SHAPE gamma
 #elif CAT(CLBRDF_MF_, MF_DIST) == CLBRDF_MF_sgd
+#ifndef MF_SAMPLER
+#define MF_SAMPLER SAMPLER_NDF
+#endif
+#define MF_SHAPE p
+#endif
 #ifndef MF_ANISO
 #define MF_ANISO 0
 #endif
@@ -150,16 +83,11 @@ FN BSample clbrdf_lambert_sample(const clbrdf_lambert_params *p, vec3 wo, rand4 
 #ifndef MF_DIFFUSE
 #define MF_DIFFUSE 0
 #endif
-#ifndef MF_SAMPLER
-#define MF_SAMPLER SAMPLER_NDF
-#endif
 #ifndef MF_KS
 #define MF_KS 0
 #endif
 #ifndef MF_F90
 #define MF_F90 0
-#endif
-#define MF_SHAPE p
 #endif
 #include "dist_exppow.h"
 #include "dist_gtr.h"

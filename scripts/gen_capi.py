@@ -109,15 +109,22 @@ def generate() -> str:
         if prefix == "microfacet":
             out += _ifndef("MF_DIST", name0)
             out += [f"#define CLBRDF_MF_{n} {i}" for i, (n, _) in enumerate(members, 1)]
-            for i, (n, s) in enumerate(members):
-                cfg, _ = s.configure(channels=1)
+            # defaults the distributions share once, then each one's own (MF_SHAPE is not an
+            # option: the parameter that fills Microfacet.shape)
+            own = {n: {k: v for k, v in s.configure(channels=1)[0].defines if k != "MF_DIST"}
+                   for n, s in members}
+            common = {k: v for k, v in own[name0].items()
+                      if k != "MF_SHAPE" and all(d.get(k) == v for d in own.values())}
+            for i, (n, _) in enumerate(members):
                 out.append(f"#{'el' if i else ''}if CAT(CLBRDF_MF_, MF_DIST) == CLBRDF_MF_{n}")
-                for k, v in cfg.defines:
+                for k, v in own[n].items():
                     if k == "MF_SHAPE":
                         out.append(f"#define {k} {v}")
-                    elif k != "MF_DIST":
+                    elif k not in common:
                         out += _ifndef(k, v)
             out.append("#endif")
+            for k, v in common.items():
+                out += _ifndef(k, v)
             headers = sorted({h for _, s in members for h in s.configure(channels=1)[0].headers})
             out += [f'#include "{h}"' for h in headers]
         else:

@@ -181,37 +181,13 @@ def test_c_api_compiles_for_cuda(arch, precision, tmp_path):
     assert ".entry" in out.read_text() and "ggx_albedo" in out.read_text()
 
 
-OPENCL = r"""
-#include "clbrdf.h"
-kernel void ggx_eval(global const float *in, global float *out)
-{
-    size_t i = get_global_id(0);
-    clbrdf_ggx_params p = clbrdf_ggx_defaults();
-    p.alpha = 0.3f;
-    vec3 wo = v3(in[6 * i], in[6 * i + 1], in[6 * i + 2]);
-    vec3 wi = v3(in[6 * i + 3], in[6 * i + 4], in[6 * i + 5]);
-    out[i] = clbrdf_ggx_eval(&p, wo, wi).c[0];
-}
-"""
-
-
 @pytest.mark.parametrize("std", ["CL1.2", "CL3.0"])
 def test_c_api_as_opencl_c(std):
-    """clbrdf.h in a user's own OpenCL kernel on the default device: GGX's value equals the
-    Python package's at width 1 to 4 ulps."""
-    import pyopencl as cl
-    dev = clbrdf.get_device()
-    prg = cl.Program(dev.context, OPENCL).build(options=[f"-cl-std={std}", "-I", str(KERNELS)])
-    wo, wi, _ = capi.inputs(256, seed=1)
-    buf = np.concatenate([wo, wi], 1).astype(np.float32)
-    mf = cl.mem_flags
-    b_in = cl.Buffer(dev.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=buf)
-    out = np.empty(256, np.float32)
-    b_out = cl.Buffer(dev.context, mf.WRITE_ONLY, out.nbytes)
-    prg.ggx_eval(dev.queue, (256,), None, b_in, b_out)
-    cl.enqueue_copy(dev.queue, out, b_out)
-    want = clbrdf.Model("ggx", alpha=0.3, width=1).eval(buf[:, :3].astype(np.float64),
-                                                          buf[:, 3:].astype(np.float64))
+    """clbrdf.h in a user's own OpenCL kernel on the default device (clbrdf.capi.run_opencl):
+    GGX's value equals the Python package's at width 1 to 4 ulps."""
+    wo, wi, u = capi.inputs(256, seed=1)
+    out = capi.run_opencl("ggx", "single", wo, wi, u, std=std)[:, 0]
+    want = clbrdf.Model("ggx", alpha=0.3, width=1).eval(wo, wi)
     eps = float(np.finfo(np.float32).eps)
     ulps = np.abs(out - want) / (eps * np.maximum(np.abs(want), np.max(np.abs(want)) * eps))
     assert ulps.max() <= 4, ulps.max()
