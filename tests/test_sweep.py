@@ -253,13 +253,15 @@ def test_sigkill_at_random_moments_then_resume_is_bit_identical(tmp_path):
     for attempt in range(12):
         resume = ["--resume"] if (out / "zarr.json").exists() else []
         p = _cli(SWEEP_ARGS + ["--out", str(out)] + resume)
-        if attempt < 4 and _ledger_count(out) < total - 2:
-            # kill once the ledger has reached a random count, after a random delay
-            target = rng.randint(_ledger_count(out), total - 2)
+        n = _ledger_count(out)
+        if len(kills) < 3 and n < total - 2:
+            # kill once the ledger has reached a random count, after a random delay of up to
+            # about one chunk (20 ms here); each target leaves room for the kills still to come
+            target = n + rng.randint(0, (total - 2 - n) // (4 - len(kills)))
             t0 = time.monotonic()
             while _ledger_count(out) < target and p.poll() is None and time.monotonic() - t0 < 60:
                 time.sleep(0.002)
-            time.sleep(rng.uniform(0, 0.05))
+            time.sleep(rng.uniform(0, 0.02))
             if p.poll() is None:
                 p.send_signal(signal.SIGKILL)
                 p.wait(30)
