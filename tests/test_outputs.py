@@ -78,7 +78,11 @@ def test_sigterm_leaves_no_temporary_file(tmp_path):
     out.write_text("old")
     p = subprocess.Popen([sys.executable, "-m", "clbrdf.cli", *TABLE, "--samples", str(1 << 30),
                           "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    time.sleep(4)
+    t0 = time.monotonic()           # into the work: the checkpoint begun, then a while longer
+    while not (tmp_path / ".t.npz.resume" / "job.json").exists() and p.poll() is None:
+        assert time.monotonic() - t0 < 120
+        time.sleep(0.01)
+    time.sleep(2)
     p.send_signal(signal.SIGTERM)
     t0 = time.perf_counter()
     _, err = p.communicate(timeout=60)
