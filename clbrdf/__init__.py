@@ -1,7 +1,8 @@
 """clbrdf: BRDF evaluation, sampling and integration in bulk with OpenCL kernels."""
 __version__ = "0.1.0"
 
-from .core import AlbedoResult, Model, albedo, albedo_avg, albedo_table, fresnel_avg, model  # noqa: F401
+from .core import (AlbedoResult, Model, TargetStderrWarning, albedo, albedo_avg,  # noqa: F401
+                   albedo_table, fresnel_avg, model)
 from .device import DeviceError, get_device, list_devices  # noqa: F401
 from .models import MODELS  # noqa: F401
 from . import presets  # noqa: F401

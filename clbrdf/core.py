@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import math
 import time
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -301,7 +302,6 @@ def albedo(m: Model, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 <
                                                           max_evals=max_evals, progress=progress)
         short = np.max(err, axis=1) > tol
         if short.any():
-            import warnings
             warnings.warn(f"quadrature: {int(short.sum())} of {short.size} points stopped at "
                           f"max_evals={max_evals} with an error estimate up to "
                           f"{float(err.max()):.2g} > tol={tol:g}", RuntimeWarning, stacklevel=2)
@@ -499,13 +499,18 @@ SPLIT = {"f0": [1.0, 0.0, 1.0], "f90": [0.0, 1.0, 1.0]}   # channels A, B, E = A
 GROWTH = 4          # a refined cell's samples grow by this factor per look
 
 
-def _refine(est, err, shape, run, samples, target, max_samples, seed):
+class TargetStderrWarning(UserWarning):
+    """A table's refinement stopped at max_samples with cells above target_stderr."""
+
+
+def _refine(est, err, shape, run, samples, target, max_samples, seed, what="cells"):
     """Refine the cells of ``shape`` (est and err: that shape, channels last for an RGB model)
     whose standard error with the resolution of their sample count (largest over channels) is
     above ``target``: per look r each draws (GROWTH - 1) x its samples with the seed derived
     from (seed, r), pooled by sample counts, until it meets the target or reaches
     ``max_samples``. ``run(flat cell indices, samples, seed) -> (est, err)`` of those cells.
-    Returns est, err and the samples per cell."""
+    Returns est, err and the samples per cell; warns (TargetStderrWarning) of cells left above
+    the target at the cap."""
     from .check import _resolution
     from .sweep import derive_seed
     est, err = np.array(est, dtype=np.float64), np.array(err, dtype=np.float64)
@@ -534,6 +539,13 @@ def _refine(est, err, shape, run, samples, target, max_samples, seed):
         e2[need] = w_old * e2[need] + w_new * e_new
         s2[need] = np.sqrt((w_old * s2[need]) ** 2 + (w_new * s_new) ** 2)
         n[need] += add
+    missed = worst > target
+    if missed.any():
+        warnings.warn(
+            f"target_stderr={target:g} not reached in {int(missed.sum())} of {missed.size} "
+            f"{what} at max_samples={max_samples} (standard error with what that many samples "
+            f"cannot resolve up to {float(worst.max()):.2g}); raise max_samples "
+            f"(--max-samples)", TargetStderrWarning, stacklevel=3)
     return e2.reshape(est.shape), s2.reshape(err.shape), n.reshape(shape)
 
 
@@ -664,7 +676,7 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
                                   **mc)
             avg, avg_s, out["E_avg_samples"] = _refine(
                 np.asarray(avg), np.asarray(avg_s), pshape, run_a, samples, target_stderr,
-                max_samples, seed)
+                max_samples, seed, what="averages")
         if split:
             for i, q in enumerate("ABE"):
                 out[q + "_avg"], out[q + "_avg_stderr"] = avg[..., i], avg_s[..., i]

@@ -203,6 +203,17 @@ def test_table_csv(tmp_path):
     np.testing.assert_array_equal(z["E_avg"], arows[:, 1])
 
 
+def test_table_target_stderr_out_of_reach_is_said(tmp_path):
+    """--target-stderr that --max-samples cannot reach: the table is written (exit 0) and
+    stderr says how many cells stayed above the target, for E and E_avg, and what to raise."""
+    r = ok("table", "ggx", "--axis", "mu=0.2:1:3", "--axis", "alpha=0.3:0.6:2", "--samples", 64,
+           "--target-stderr", "1e-4", "--max-samples", 256, "--out", tmp_path / "t.npz")
+    assert "warning: target_stderr=0.0001 not reached in 6 of 6 cells at max_samples=256" \
+        in r.stderr, r.stderr
+    assert "not reached in 2 of 2 averages" in r.stderr and "--max-samples" in r.stderr
+    assert int(np.load(tmp_path / "t.npz")["E_samples"].min()) == 256
+
+
 def test_table_mu_only(tmp_path):
     r = ok("table", "lambert", "--axis", "mu=0.1:1:5", "--param", "kd=0.25", "--samples", 512,
            "--out", tmp_path / "l.npz")

@@ -12,6 +12,7 @@ two-sided Sidak bound for family-wise significance 1e-3 over the cells of a tabl
 import json
 import shutil
 import subprocess
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -536,18 +537,29 @@ def test_target_stderr_refines_only_the_cells_that_need_it():
     from clbrdf.check import _resolution
     axes = {"mu": [0.02, 0.3, 1.0], "r": [0.1, 0.6, 1.0]}
     base, cap, target = 1 << 12, 1 << 18, 2.5e-3
-    t = clbrdf.albedo_table("ggx", axes, samples=base, target_stderr=target, max_samples=cap)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", clbrdf.TargetStderrWarning)
+        t = clbrdf.albedo_table("ggx", axes, samples=base, target_stderr=target, max_samples=cap)
     n, s = t["E_samples"], t["E_stderr"]
     eff = np.hypot(s, _resolution(t["E"], n))
     assert np.all((eff <= target) | (n == cap)), (eff, n)
+    eff_a = np.hypot(t["E_avg_stderr"], _resolution(t["E_avg"], t["E_avg_samples"]))
+    # a warning for each of E and E_avg exactly when some of its cells stayed above the target
+    said = [str(w.message) for w in caught if w.category is clbrdf.TargetStderrWarning]
+    assert sum(" cells " in w for w in said) == int(np.any(eff > target)), said
+    assert sum(" averages " in w for w in said) == int(np.any(eff_a > target)), said
     assert n.min() == base and n.max() > base, n
     mu, r = np.meshgrid(axes["mu"], axes["r"], indexing="ij")
     d = clbrdf.albedo(clbrdf.Model("ggx", alpha=r ** 2), mu, samples=1 << 20, seed=5)
     slack = 5 * np.hypot(s, d.stderr) + _resolution(t["E"], n) + _resolution(d.albedo, 1 << 20)
     assert np.all(np.abs(t["E"] - d.albedo) < slack), (t["E"], d.albedo)
-    eff_a = np.hypot(t["E_avg_stderr"], _resolution(t["E_avg"], t["E_avg_samples"]))
     assert np.all((eff_a <= target) | (t["E_avg_samples"] == cap))
     assert json.loads(t["metadata"])["target_stderr"] == target
+    # a cap too low for the target: told, with the count of cells left above it
+    with pytest.warns(clbrdf.TargetStderrWarning,
+                      match=r"target_stderr=0.0001 not reached in 9 of 9 cells at max_samples=256"):
+        clbrdf.albedo_table("ggx", axes, samples=64, target_stderr=1e-4, max_samples=256,
+                            average=False)
     with pytest.raises(clbrdf.ParameterError, match="max_samples is the cap"):
         clbrdf.albedo_table("ggx", axes, samples=64, max_samples=128)
     with pytest.raises(clbrdf.ParameterError, match="target_stderr=0"):
