@@ -64,7 +64,7 @@ def decode(raw: np.ndarray, encoding: str) -> np.ndarray:
 
 def _run(model, axl, qs, fixed, **kw):
     """albedo_table over the axes for quantities qs -> (values, stderr, metadata) with channels
-    last when there are several quantities."""
+    last when there are several quantities or an RGB model's one (R, G, B)."""
     from .core import albedo_table
     names = [a["name"] for a in axl]
     kc = ["_kc" in q for q in qs]
@@ -85,9 +85,9 @@ def _run(model, axl, qs, fixed, **kw):
     for q in qs:
         base = q.removeprefix("1-")
         v, s = np.asarray(t[base], np.float64), np.asarray(t[base + "_stderr"], np.float64)
-        if v.ndim != len(names):
-            raise ParameterError(f"{q} of an RGB model has a channel axis; give a "
-                                 f"single-channel configuration")
+        if v.ndim != len(names) and len(qs) > 1:
+            raise ParameterError(f"quantities {qs} of an RGB model: its channels are the table's "
+                                 f"channels, so one quantity per table")
         chans.append(1 - v if q.startswith("1-") else v)
         errs.append(s)
     stack = (lambda x: np.stack(x, -1)) if len(qs) > 1 else (lambda x: x[0])
@@ -112,10 +112,13 @@ def _run_kc(model, axl, q, fixed, **kw):
     The stderr adds the three estimates' in quadrature (first order; E_F and E share seeds and
     correlate positively, so it is an upper bound)."""
     from .axes import check_form, evaluated
-    from .core import fresnel_avg
+    from .core import Model, fresnel_avg
     avg = q.endswith("_avg")
     plain = "E_avg" if avg else "E"
     fixed = dict(fixed or {})
+    if Model(model, **fixed, **{k: kw[k] for k in ("device", "precision") if k in kw}).channels > 1:
+        raise ParameterError(f"{q} of an RGB model: not made (its F_ms would mix channels); give "
+                             f"a single-channel configuration")
     fres = [a for a in axl if a["name"] in FRESNEL_AXES]
     rest = [a for a in axl if a["name"] not in FRESNEL_AXES]
     one = {k: v for k, v in fixed.items() if k not in FRESNEL_AXES and k != "fresnel"}
@@ -132,9 +135,6 @@ def _run_kc(model, axl, q, fixed, **kw):
     fres_fixed = {k: v for k, v in fixed.items() if k in FRESNEL_AXES + ("fresnel",)}
     Fa = fresnel_avg(model, **fres_fixed, **{a["name"]: g for a, g in zip(fa_axes, grids)},
                      **{k: kw[k] for k in ("device",) if k in kw})
-    if np.ndim(Fa) > len(fa_axes):
-        raise ParameterError(f"{q} of an RGB model has a channel axis; give a single-channel "
-                             f"configuration")
     fn = [a["name"] for a in fres]
     v1, s1 = (_expand(x, [a["name"] for a in rest], axl) for x in (v1, s1))
     va, sa = (_expand(x, [a["name"] for a in keep], axl) for x in (va, sa))
@@ -183,6 +183,9 @@ def compute_table(model: str, name: str, quantity, axes: list, *, fixed=None, va
         return _fresnel_table(model, name, qs, axl, fixed, value_range, encoding, layout, kw)
     values, stderr, t = _run(model, axl, qs, fixed, **kw)
     meta = json.loads(t["metadata"])
+    labels = qs                 # the channels; an RGB model's one quantity Q: Q.R, Q.G, Q.B
+    if values.ndim > len(names) + (len(qs) > 1):
+        labels = [f"{qs[0]}.{c}" for c in "RGB"]
     clamped = 0
     if value_range is not None:
         lo, hi = value_range
@@ -191,9 +194,9 @@ def compute_table(model: str, name: str, quantity, axes: list, *, fixed=None, va
     raw = encode(values, encoding)
     specs = {a["name"]: a for a in meta["axis_specs"]}
     axes_out = [dict(specs[n], values=np.asarray(t[n], np.float64).tolist()) for n in names]
-    info = {"name": name, "quantity": qs, "encoding": encoding, "range": value_range,
+    info = {"name": name, "quantity": labels, "encoding": encoding, "range": value_range,
             "clamped_cells": clamped, "layout": layout, "computed": meta}
-    table = Table(name=name, axes=axes_out, quantity=qs, raw=raw, stderr=stderr,
+    table = Table(name=name, axes=axes_out, quantity=labels, raw=raw, stderr=stderr,
                   encoding=encoding, meta=info)
     if check_interpolation and any(len(a["values"]) > 1 for a in axes_out):
         mids = []

@@ -35,7 +35,7 @@ SUFFIXES = (".npz", ".h", ".exr")
 class Table:
     name: str
     axes: list                      # axis dicts (clbrdf.axes) with "values", memory order
-    quantity: list                  # channel names, e.g. ["E"] or ["A", "B"]
+    quantity: list                  # channel names: ["E"], ["A", "B"], an RGB model's ["E.R", "E.G", "E.B"]
     raw: np.ndarray                 # stored values: shape of the axes (+ channels if > 1)
     stderr: np.ndarray              # standard error of each value before encoding
     encoding: str = "float32"

@@ -298,12 +298,43 @@ def test_every_layout_is_well_formed():
 # ---------------------------------------------------------------------------------------------
 # files and the header
 
-LAYOUTS_COMPILED = ["cycles", "threejs", "ue5", "openpbr"]
+LAYOUTS_COMPILED = ["cycles", "threejs", "ue5", "openpbr", "rgb-preset"]
+# an RGB model's tables (a MERL fit with a per-channel axis, tests/test_table_paths.py's case
+# preset-spectral-axis): one quantity, channels E.R, E.G, E.B
+RGB_PRESET = ("beckmann", [{"name": "mu", "values": [0.2, 0.5, 0.9]},
+                           {"name": "kd", "values": [0.0, 0.3, 0.6, 0.9]}], {"preset": "alum-bronze"})
+
+
+def _rgb_preset_tables(samples):
+    model, axes, fixed = RGB_PRESET
+    return {"E": compute_table(model, "E", "E", axes, fixed=fixed, samples=samples),
+            "E_avg": compute_table(model, "E_avg", "E_avg", axes[1:], fixed=fixed,
+                                   samples=samples)}
 
 
 @pytest.fixture(scope="module")
 def small_layouts():
-    return {n: make_layout(n, samples=64) for n in LAYOUTS_COMPILED}
+    return {n: _rgb_preset_tables(64) if n == "rgb-preset" else make_layout(n, samples=64)
+            for n in LAYOUTS_COMPILED}
+
+
+def test_rgb_model_tables_have_a_channel_per_colour():
+    """An RGB model's table: channels E.R, E.G, E.B last, each albedo_table's E of that channel
+    (the battery checks those cell by cell), and its lookup at the nodes gives them back."""
+    model, axes, fixed = RGB_PRESET
+    tables = _rgb_preset_tables(256)
+    ref = clbrdf.albedo_table(model, {a["name"]: a["values"] for a in axes}, samples=256,
+                              **fixed)
+    for name, t in tables.items():
+        assert t.quantity == [f"{name}.{c}" for c in "RGB"] and t.raw.shape == t.shape + (3,)
+        assert np.array_equal(t.raw, ref[name].astype(np.float32)), name
+        assert np.array_equal(t.stderr, ref[name + "_stderr"]), name
+        grids = np.meshgrid(*[a["values"] for a in t.axes], indexing="ij")
+        assert np.allclose(t.lookup(*grids), t.values, rtol=1e-12, atol=0), name
+    with pytest.raises(clbrdf.ParameterError, match="one quantity per table"):
+        compute_table(model, "AB", ["E", "1-E"], axes, fixed=fixed, samples=64)
+    with pytest.raises(clbrdf.ParameterError, match="E_kc of an RGB model"):
+        compute_table(model, "K", "E_kc", axes, fixed=fixed, samples=64)
 
 
 def _coords(t, rng, n=50):
@@ -431,7 +462,7 @@ def test_header_runs_as_opencl_c(std, small_layouts, tmp_path):
 
 @pytest.mark.parametrize("suffix", [".npz", ".exr"])
 def test_files_round_trip(suffix, small_layouts, tmp_path):
-    tables = small_layouts["openpbr"]
+    tables = {**small_layouts["openpbr"], **small_layouts["rgb-preset"]}
     save_tables(tables, tmp_path / f"t{suffix}")
     back = load_tables(tmp_path / f"t{suffix}")
     assert list(back) == list(tables)
@@ -442,6 +473,7 @@ def test_files_round_trip(suffix, small_layouts, tmp_path):
         assert np.allclose(b.stderr, t.stderr, rtol=1e-6), name
         assert [a["values"] for a in b.axes] == [a["values"] for a in t.axes]
         assert b.meta["computed"]["samples"] == 64
+    assert back["E"].quantity == ["E.R", "E.G", "E.B"]
     one = Table.load(tmp_path / f"t{suffix}", "OpenPBR_IdealMetalEnergyComplement_Array")
     assert one.shape == (32, 32)
     with pytest.raises(clbrdf.ParameterError, match="holds tables"):
