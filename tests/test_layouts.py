@@ -522,6 +522,12 @@ def test_cli_generic_table_to_header_and_exr(tmp_path):
     assert np.allclose(t.axes[0]["values"], (np.arange(6) + 0.5) / 6 * 1.5)
     assert json.loads(json.dumps(t.meta))["computed"]["mapped"] == {"theta": "mu = cos(theta)",
                                                                      "r": "alpha = r^2"}
+    # an RGB model (a preset): one channel per colour, and the C lookup takes the channel
+    r = run_inprocess("table", "beckmann", "--preset", "alum-bronze", "--axis", "mu=0.1:1:4",
+                      "-n", "256", "--out", str(tmp_path / "p.exr"), "--out", str(tmp_path / "p.h"))
+    assert r.returncode == 0, r.stderr
+    assert Table.load(tmp_path / "p.exr", "E").quantity == ["E.R", "E.G", "E.B"]
+    assert "float beckmann_E_lookup(float mu, int channel)" in (tmp_path / "p.h").read_text()
 
 
 # ---------------------------------------------------------------------------------------------
