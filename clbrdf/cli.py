@@ -650,6 +650,10 @@ def _sweep_text(s, summ, seconds=None) -> str:
                      f"{w['direction']['mu']:.4g}, phi = {w['direction']['phi']:.4g}"
                      + (f", channel {w['channel']}" if "channel" in w else "")
                      + f" ({w['verdict']})")
+    if summ.get("above_target"):
+        lines.append(f"{summ['above_target']} points kept an estimate above --target-stderr "
+                     f"{job['target_stderr']:g} at --max-samples {job['max_samples']}: raise it "
+                     f"to reach the target")
     if seconds is not None:
         lines.append(f"store {s.path} written in {seconds:.1f} s")
     return "\n".join(lines)

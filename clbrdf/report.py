@@ -200,6 +200,9 @@ def markdown(s: Sweep, summary: dict, worst: list, files: list[str]) -> str:
               "| points | gains | conserves | undecided |", "|---:|---:|---:|---:|",
               f"| {summary['computed']} | {summary['gains']} | {summary['conserves']} | "
               f"{summary['undecided']} |", ""]
+    if summary.get("above_target"):
+        lines += [f"{summary['above_target']} points kept an estimate above the target standard "
+                  f"error {job['target_stderr']:g} at {job['max_samples']} samples.", ""]
     if worst:
         keys = s.axes or []
         ch = job["channels"] > 1

@@ -740,14 +740,22 @@ class Sweep:
                                         else {}), **{k: float(v[0]) for k, v in vals.items()}}
 
     def summary(self, worst: int = 1) -> dict:
-        """Counts of verdicts over the computed points and the worst points (largest E_max)."""
+        """Counts of verdicts over the computed points and the worst points (largest E_max);
+        with target_stderr, ``above_target``: the points with an estimate still above it (at
+        max_samples)."""
         counts = {v: 0 for v in VERDICTS.values()}
         best: list = []                     # (E, i, channel)
-        computed = 0
-        for i0, a in self.chunks():
+        computed = above = 0
+        target = self.job.get("target_stderr")
+        arrays = ("E_max", "E_max_stderr", "E_max_dir", "verdict") + (
+            ("E_stderr",) if target is not None else ())
+        for i0, a in self.chunks(arrays):
             v = a["verdict"]
             ok = v != NOT_DONE
             computed += int(ok.sum())
+            if target is not None:      # stored as float32: above by more than its rounding
+                se = a["E_stderr"].reshape(len(v), -1).astype(np.float64)
+                above += int(np.sum(ok & np.any(se > target * (1 + 2 ** -23), axis=1)))
             for code, name in VERDICTS.items():
                 counts[name] += int((v == code).sum())
             em = a["E_max"].reshape(len(v), -1)
@@ -761,7 +769,8 @@ class Sweep:
                              int(a["E_max_dir"].reshape(len(v), -1)[i, c]), int(v[i])))
             best = sorted(best, reverse=True)[:worst]
         d = self.directions
-        out = {"points": self.points, "computed": computed, **counts, "worst": None}
+        out = {"points": self.points, "computed": computed, **counts, "worst": None,
+               **({"above_target": above} if target is not None else {})}
         rows = []
         for e, i, c, s, j, v in best:
             rows.append({"point": i, "parameters": self.point(i),

@@ -97,6 +97,19 @@ def test_refinement_and_target_stderr(tmp_path):
     assert np.all((S <= 2e-3) | (N == 256 * 64))
     assert np.all(np.abs(s["E"][:] - np.array([[0.3], [0.999]])) <= 5 * S)
     assert N[1].min() > 256        # kd = 0.999 straddles 1 at 256 samples: refined
+    assert s.summary()["above_target"] == int(np.sum(np.any(S > 2e-3, axis=1)))
+    # a cap too low for the target: the summary and the command say how many points stayed above
+    r = run_inprocess("sweep", "lambert", "--axis", "kd=0.3,0.6,0.9", "--estimator", "uniform",
+                      "--samples", 256, "--max-samples", 1024, "--target-stderr", "1e-4",
+                      "--directions", "gauss:4", "--out", tmp_path / "low.zarr")
+    assert r.returncode == 0, r.stderr
+    assert "3 points kept an estimate above --target-stderr 0.0001 at --max-samples 1024" \
+        in r.stdout, r.stdout
+    assert open_sweep(tmp_path / "low.zarr").summary()["above_target"] == 3
+    r = run_inprocess("report", tmp_path / "low.zarr", "--out", tmp_path / "rep")
+    assert r.returncode == 0, r.stderr
+    assert "3 points kept an estimate above the target standard error 0.0001 at 1024 samples" \
+        in (tmp_path / "rep/README.md").read_text()
 
 
 def test_random_points_are_sobol_and_chunk_independent(tmp_path):
