@@ -145,7 +145,9 @@ def lambda_quad(dist: str, tan_theta: float, alpha: float, shape: float, epsrel=
         X = math.exp(v_hi)
         # tail: integral_X^inf (t sqrt x - pi/2) P22(x) dx with P22 = (c/pi) x^-2 (1 + O(1/x))
         tail = c / math.pi * (2 * t / math.sqrt(X) - math.pi / (2 * X))
-    pts = sorted(s for s in scales if v0 < s < v_hi)
+    # split at the distribution's scales, but not within rounding of v0 (a piece 1e-15 long
+    # gave quad's "extremely bad integrand" warning at t = 10, alpha = 0.01: ln(a) = -2 ln t)
+    pts = sorted(s for s in scales if v0 + 1e-9 < s < v_hi - 1e-9)
     parts = [v0] + pts + [v_hi]
     val = 0.0
     for lo, hi in zip(parts[:-1], parts[1:]):
