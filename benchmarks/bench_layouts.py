@@ -16,6 +16,7 @@ import datetime as _dt
 import sys
 import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 
@@ -101,7 +102,7 @@ def write(rows, layouts, clbrdf):
                 f"evaluations per cell) on every node "
                 f"(tables up to 1024 cells) or every 4th node of each axis. Run: "
                 f"`python benchmarks/bench_layouts.py --write` (`--only NAME` re-runs one "
-                f"layout and replaces its rows; last: `{' '.join(['python'] + sys.argv)}`).", "",
+                f"layout and replaces its rows; last: `{' '.join(['python', 'benchmarks/' + Path(sys.argv[0]).name] + sys.argv[1:])}`).", "",
                 "| layout | estimator | samples per cell | values | wall s | CPU s | max error | "
                 "max stderr |", "|---|---|---:|---:|---:|---:|---:|---:|"]
         old = RESULTS.read_text() if RESULTS.exists() else ""
