@@ -30,31 +30,22 @@ import numpy as np
 from scipy import stats as sps
 
 from . import stats as S
-from .core import Model, albedo
+from .core import EPS, ROUND_ULPS, Model, albedo, rounding_floor, unseen
 from .spec import MU_MIN
 
 ALPHA = 1e-3              # family-wise significance of the statistical checks
 WEIGHT_RTOL = {"single": 1e-3, "double": 1e-8}
 WEIGHT_BAD_FRACTION = 1e-3
-# Rounding floor of an albedo estimate, in units of |E|: each sample's weight carries a few ulps
-# of rounding that do not average out (a bias, not noise), so statistical comparisons add
-# ROUND_ULPS ulps of |E| in quadrature to the standard errors.
-ROUND_ULPS = 8
-EPS = {"single": 2.0 ** -24, "double": 2.0 ** -53}
 
 
 def _floor(m, e):
-    return ROUND_ULPS * EPS[m.precision] * np.maximum(np.abs(e), 1.0)
+    return rounding_floor(m.precision, e)
 
 
 def _resolution(e, samples):
-    """What n samples cannot see: a part of E carried by events rarer than ln(1 / ALPHA) / n
-    (not drawn once, with probability above ALPHA) whose weights are of the order of E. Near-mirror
-    lobes have such parts: a GGX visible-normal sample leaves the hemisphere about once in 1e6 at
-    alpha = 1e-4 (E = 1 - 2e-6), the cosine technique of MIS hits the lobe about as rarely; most
-    runs of 2^16 samples then report E = 1 - 1e-7 with a stderr of 1e-11. Added in quadrature
-    to the standard errors of the statistical comparisons (2^16 samples: 1.1e-4 of E)."""
-    return math.log(1 / ALPHA) / samples * np.abs(e)
+    """What n samples cannot see where the weights are of the order of E (core.unseen with
+    W = |E|), for comparisons that start from a reference rather than from an AlbedoResult."""
+    return unseen(np.abs(e), samples, ALPHA)
 
 
 @dataclass

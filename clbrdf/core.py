@@ -242,6 +242,16 @@ class AlbedoResult:
     model: dict = field(default_factory=dict)
     tol: float | None = None         # quadrature: the error target
     evaluations: np.ndarray | None = None   # quadrature: integrand evaluations per point
+    sampling_stderr: np.ndarray | None = None   # Monte Carlo: the spread of the samples alone
+    weight_scale: np.ndarray | None = None      # Monte Carlo: W of the unseen-event allowance
+
+    @property
+    def unseen(self):
+        """The allowance for events the samples did not draw, ln(1000) W / N (``unseen``);
+        ``stderr`` is it and ``sampling_stderr`` in quadrature. 0 for the quadrature."""
+        if self.weight_scale is None:
+            return np.zeros_like(np.asarray(self.stderr))
+        return unseen(self.weight_scale, self.samples)
 
     def to_json(self) -> dict:
         return {"model": self.model.get("model"),
@@ -250,6 +260,9 @@ class AlbedoResult:
                 "precision": self.precision, "mu": np.asarray(self.mu).tolist(),
                 "albedo": np.asarray(self.albedo).tolist(), "stderr": np.asarray(self.stderr).tolist(),
                 "seconds": self.seconds, "seed": self.seed,
+                **({} if self.sampling_stderr is None else
+                   {"sampling_stderr": np.asarray(self.sampling_stderr).tolist(),
+                    "unseen": np.asarray(self.unseen).tolist()}),
                 **({} if self.tol is None else
                    {"tol": self.tol, "evaluations": np.asarray(self.evaluations).tolist()})}
 
@@ -315,9 +328,119 @@ def albedo(m: Model, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 <
     run = runtime.run_albedo if ck is None else ck.run_albedo
     est, err, plan, seconds = run(m, shape, wo, estimator=estimator, samples=samples,
                                   seed=seed, qmc=qmc, progress=progress)
-    return AlbedoResult(est.reshape(cshape), err.reshape(cshape), np.broadcast_to(mu, shape),
+    scale = weight_scale(m, shape, wo, estimator, est)
+    honest = reported_error(err, unseen(scale, plan.samples), rounding_floor(m.precision, est))
+    return AlbedoResult(est.reshape(cshape), honest.reshape(cshape), np.broadcast_to(mu, shape),
                         estimator, plan.samples, qmc, int(seed), m.precision, seconds,
-                        m.describe())
+                        m.describe(), sampling_stderr=err.reshape(cshape),
+                        weight_scale=scale.reshape(cshape))
+
+
+# ---------------------------------------------------------------------------------------------
+# What N samples cannot see (docs/accuracy/unseen.md)
+
+UNSEEN_ALPHA = 1e-3
+# Rounding floor of an albedo estimate, in units of max(|E|, 1): each sample's weight carries a
+# few ulps of rounding that do not average out (a bias, not noise; GGX with kd = 1, ks = 0:
+# E = 1 - 7.5e-9 +- 7.7e-11 in single), so the reported error has ROUND_ULPS ulps in quadrature.
+ROUND_ULPS = 8
+EPS = {"single": 2.0 ** -24, "double": 2.0 ** -53}
+
+
+def rounding_floor(precision: str, e):
+    return ROUND_ULPS * EPS[precision] * np.maximum(np.abs(e), 1.0)
+
+# Probe numbers u in [0, 1): the sampler's edges (2^-20 from 0 and 1: the lobe's peak and its far
+# tail) and 4 interior values per axis; u2 picks among a mixture's lobes.
+_PROBE_U = np.array([2.0 ** -20, 0.125, 0.375, 0.625, 0.875, 1 - 2.0 ** -20])
+_PROBE_LOBE = np.array([0.1, 0.5, 0.9])
+_PROBE_ROWS = 1 << 20            # probe evaluations per kernel call, at most
+
+
+def reported_error(sampling, unseen_part, floor):
+    """The error a Monte Carlo result reports: the sampling error, the unseen-event allowance
+    and the rounding floor in quadrature (docs/accuracy/unseen.md)."""
+    return np.sqrt(np.square(sampling) + np.square(unseen_part) + np.square(floor))
+
+
+def unseen(scale, n, alpha: float = UNSEEN_ALPHA):
+    """The allowance for events that n samples did not draw: a region of the sampler's domain of
+    probability p is missed by all n samples with probability (1 - p)^n < exp(-p n), so with
+    probability at least 1 - alpha every region that was missed has p < ln(1 / alpha) / n, and
+    it changes E by at most p W, W (``weight_scale``) bounding |weight - E| there."""
+    return math.log(1 / alpha) * np.asarray(scale, dtype=np.float64) / np.asarray(n, np.float64)
+
+
+def _probe_grid():
+    u0, u1 = np.meshgrid(_PROBE_U, _PROBE_U, indexing="ij")
+    cos_u = np.stack([u0.ravel(), u1.ravel()], -1)
+    brdf_u = np.concatenate([np.column_stack([cos_u, np.full(len(cos_u), l),
+                                              np.full(len(cos_u), 0.5)]) for l in _PROBE_LOBE])
+    return cos_u, brdf_u
+
+
+def weight_scale(m: Model, shape, wo_rows, estimator: str, est=None) -> np.ndarray:
+    """W of ``unseen`` for each point of ``shape`` (channels last): the largest weight of the
+    estimator over probe directions, deterministic and the same for every point: the model's
+    sampler at a grid of numbers that includes the edges of its domain (its lobe's peak and far
+    tail), and cosine-distributed directions on the same grid (where a sampler goes rarely, its
+    weight f cos / pdf is largest). A weight per sample of the estimator: uniform 2 pi f cos,
+    cosine pi f, brdf f cos / pdf, mis twice f cos / (pdf + cos / pi) (two terms per estimate).
+    Weights are >= 0, so max(W, |E|) bounds |weight - E| where a missed event has weight 0, as
+    well as where it has a large one. W = 0 where every probe gives the same weight to rounding
+    (64 ulps): the estimator is then exact (Lambert with cosine or brdf sampling)."""
+    npts = math.prod(shape)
+    nch = m.channels
+    cos_u, brdf_u = _probe_grid()
+    s = np.sqrt(1 - cos_u[:, 0])
+    phi = 2 * np.pi * cos_u[:, 1]
+    cos_dirs = np.stack([s * np.cos(phi), s * np.sin(phi), np.sqrt(cos_u[:, 0])], -1)
+    wo = np.stack([np.broadcast_to(np.asarray(w, np.float64), shape) for w in wo_rows], -1)
+    hi = np.zeros((npts, nch))
+    lo = np.full((npts, nch), np.inf)
+    per = max(1, _PROBE_ROWS // max(npts, 1))
+    lead = (slice(None),) + (None,) * len(shape)
+
+    def weights(wi, f=None, sw=None):
+        """The estimator's weight at wi (probes, points, 3); sw: the sampler's own weights."""
+        c = np.maximum(wi[..., 2], 0.0)
+        if f is None:
+            f = np.asarray(m.eval(np.broadcast_to(wo, wi.shape), wi), np.float64)
+        f = f.reshape(wi.shape[:-1] + (nch,))
+        c = c[..., None]
+        if estimator == "uniform":
+            return 2 * np.pi * f * c
+        if estimator == "cosine":
+            return np.pi * f
+        pdf = np.asarray(m.pdf(np.broadcast_to(wo, wi.shape), wi), np.float64)[..., None]
+        if estimator == "brdf":
+            if sw is not None:
+                return sw
+            with np.errstate(divide="ignore", invalid="ignore"):
+                return np.where(pdf > 0, f * c / pdf, 0.0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            q = pdf + c / np.pi
+            return np.where(q > 0, 2 * f * c / q, 0.0)
+
+    def take(w):
+        w = np.where(np.isfinite(w), w, 0.0).reshape(w.shape[0], npts, nch)
+        hi[:] = np.maximum(hi, w.max(axis=0))
+        lo[:] = np.minimum(lo, w.min(axis=0))
+
+    dtype = np.float32 if m.precision == "single" else np.float64
+    for i in range(0, len(brdf_u), per):
+        u = brdf_u[i:i + per].astype(dtype)[lead]
+        wi, sw, _ = m.sample(np.broadcast_to(wo, (len(u),) + shape + (3,)),
+                             u=np.broadcast_to(u, (len(u),) + shape + (4,)))
+        take(weights(np.asarray(wi, np.float64),
+                     sw=np.asarray(sw, np.float64).reshape(wi.shape[:-1] + (nch,))))
+    for i in range(0, len(cos_dirs), per):
+        d = cos_dirs[i:i + per][lead]
+        take(weights(np.broadcast_to(d, (len(d),) + shape + (3,)).copy()))
+    eps = 2.0 ** -24 if m.precision == "single" else 2.0 ** -53
+    if est is not None:
+        hi = np.maximum(hi, np.abs(np.asarray(est, np.float64).reshape(npts, nch)))
+    return np.where(hi - lo <= 64 * eps * hi, 0.0, hi)
 
 
 GAUSS_NODES = 32
@@ -367,7 +490,8 @@ def _split_rule(nodes: int, kinks: np.ndarray):
     return np.stack(mus), np.stack(ws)
 
 
-def albedo_avg(m: Model, *, nodes: int = GAUSS_NODES, phi_nodes: int | None = None, **kw):
+def albedo_avg(m: Model, *, nodes: int = GAUSS_NODES, phi_nodes: int | None = None,
+               _parts: dict | None = None, **kw):
     """E_avg = (1/pi) integral E(wo) cos(theta_o) dwo = 2 integral_0^1 E(mu) mu dmu for an
     isotropic model; returns (E_avg, stderr) broadcast over the model's parameters. Gauss-Legendre
     in mu (``nodes``), split into panels at the kinks of E in mu that the model declares (the
@@ -376,7 +500,8 @@ def albedo_avg(m: Model, *, nodes: int = GAUSS_NODES, phi_nodes: int | None = No
     Schlick's scratches: ``m.anisotropic``) also the mean over ``phi_nodes`` azimuths (default
     PHI_NODES). The error estimate is the Monte Carlo error only (with
     ``estimator='quadrature'``, the sum of the weighted error estimates), not the rule's error in
-    mu and phi."""
+    mu and phi: the nodes' sampling errors in quadrature and, with it in quadrature, the unseen-
+    event allowance of the weighted sum of their weight scales (``unseen``)."""
     if phi_nodes is None:
         phi_nodes = PHI_NODES if m.anisotropic else 1
     mu, phi, c = _avg_rule(nodes, phi_nodes)
@@ -396,9 +521,20 @@ def albedo_avg(m: Model, *, nodes: int = GAUSS_NODES, phi_nodes: int | None = No
         mu_in = mu.reshape((-1, 1) + (1,) * len(pshape))
     r = albedo(m, mu_in, phi.reshape((1, -1) + (1,) * len(pshape)), **kw)
     cw = np.reshape(c, lead + (1,) * (r.albedo.ndim - len(lead)))
+    avg = (cw * r.albedo).sum(axis=(0, 1))
     if r.tol is not None:           # quadrature: error bounds add up
-        return (cw * r.albedo).sum(axis=(0, 1)), (cw * r.stderr).sum(axis=(0, 1))
-    return (cw * r.albedo).sum(axis=(0, 1)), np.sqrt(((cw * r.stderr) ** 2).sum(axis=(0, 1)))
+        return avg, (cw * r.stderr).sum(axis=(0, 1))
+    s, scale = _avg_parts(cw, r.sampling_stderr, r.weight_scale)
+    if _parts is not None:
+        _parts.update(sampling_stderr=s, weight_scale=scale, samples=r.samples)
+    return avg, reported_error(s, unseen(scale, r.samples), rounding_floor(m.precision, avg))
+
+
+def _avg_parts(cw, sampling_stderr, scale):
+    """A weighted sum's sampling error (independent: in quadrature) and its unseen-event scale
+    (the nodes may all miss alike: the scales add up)."""
+    return (np.sqrt(((cw * sampling_stderr) ** 2).sum(axis=(0, 1))),
+            (cw * scale).sum(axis=(0, 1)))
 
 
 FRESNEL_AVG_NODES = 64
@@ -503,41 +639,44 @@ class TargetStderrWarning(UserWarning):
     """A table's refinement stopped at max_samples with cells above target_stderr."""
 
 
-def _refine(est, err, shape, run, samples, target, max_samples, seed, what="cells"):
-    """Refine the cells of ``shape`` (est and err: that shape, channels last for an RGB model)
-    whose standard error with the resolution of their sample count (largest over channels) is
-    above ``target``: per look r each draws (GROWTH - 1) x its samples with the seed derived
-    from (seed, r), pooled by sample counts, until it meets the target or reaches
-    ``max_samples``. ``run(flat cell indices, samples, seed) -> (est, err)`` of those cells.
-    Returns est, err and the samples per cell; warns (TargetStderrWarning) of cells left above
-    the target at the cap."""
-    from .check import _resolution
+def _refine(est, err, scale, shape, run, samples, target, max_samples, seed, precision,
+            what="cells"):
+    """Refine the cells of ``shape`` (est, err: the sampling error, scale: the unseen-event
+    scale W; that shape, channels last for an RGB model) whose error, the sampling error and
+    ``unseen(W, n)`` in quadrature (largest over channels), is above ``target``: per look r
+    each draws (GROWTH - 1) x its samples with the seed derived from (seed, r), pooled by sample
+    counts, until it meets the target or reaches ``max_samples``. ``run(flat cell indices,
+    samples, seed) -> (est, sampling error, W)`` of those cells. Returns est, the error (sampling
+    and unseen in quadrature) and the samples per cell; warns (TargetStderrWarning) of cells
+    left above the target at the cap."""
     from .sweep import derive_seed
     est, err = np.array(est, dtype=np.float64), np.array(err, dtype=np.float64)
     rgb = est.ndim > len(shape)
     e2 = est.reshape((-1,) + est.shape[len(shape):])
     s2 = err.reshape((-1,) + err.shape[len(shape):])
+    w2 = np.array(np.broadcast_to(scale, est.shape), np.float64).reshape(e2.shape)
     n = np.full(e2.shape[0], samples, dtype=np.int64)
     look = 0
     while True:
-        # the standard error, and what n samples cannot see (check._resolution: a part of E
-        # carried by events rarer than ln(1000) / n; a near-mirror cell of 1024 samples reported
-        # E = 1 - 6e-8 +- 2e-8 for a true 1 - 1e-4)
+        # the standard error, and what n samples cannot see (``unseen``: a near-mirror cell of
+        # 1024 samples reported E = 1 - 6e-8 +- 2e-8 for a true 1 - 1e-4)
         nn = n.reshape((-1,) + (1,) * (e2.ndim - 1))
-        eff = np.hypot(s2, _resolution(e2, nn))
+        eff = reported_error(s2, unseen(w2, nn), rounding_floor(precision, e2))
         worst = eff.max(axis=-1) if rgb else eff
         need = np.flatnonzero((worst > target) & (n < max_samples))
         if need.size == 0:
             break
         look += 1
         add = int(min(n[need[0]] * (GROWTH - 1), max_samples - n[need[0]]))
-        e_new, s_new = run(need, add, derive_seed(seed, look))
+        e_new, s_new, w_new_scale = run(need, add, derive_seed(seed, look))
         e_new = np.asarray(e_new, np.float64).reshape(e2[need].shape)
         s_new = np.asarray(s_new, np.float64).reshape(s2[need].shape)
+        w_new_scale = np.asarray(w_new_scale, np.float64).reshape(w2[need].shape)
         w_old = (n[need] / (n[need] + add)).reshape((-1,) + (1,) * (e2.ndim - 1))
         w_new = 1 - w_old
         e2[need] = w_old * e2[need] + w_new * e_new
         s2[need] = np.sqrt((w_old * s2[need]) ** 2 + (w_new * s_new) ** 2)
+        w2[need] = np.maximum(w2[need], w_new_scale)
         n[need] += add
     missed = worst > target
     if missed.any():
@@ -546,7 +685,7 @@ def _refine(est, err, shape, run, samples, target, max_samples, seed, what="cell
             f"{what} at max_samples={max_samples} (standard error with what that many samples "
             f"cannot resolve up to {float(worst.max()):.2g}); raise max_samples "
             f"(--max-samples)", TargetStderrWarning, stacklevel=3)
-    return e2.reshape(est.shape), s2.reshape(err.shape), n.reshape(shape)
+    return e2.reshape(est.shape), eff.reshape(err.shape), n.reshape(shape)
 
 
 def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: str = "brdf",
@@ -573,7 +712,7 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
     ``average=False`` leaves out the averages (and their cost).
 
     ``target_stderr``: cells (and averages) whose standard error (the largest over channels,
-    with the part of E that N samples cannot see, ln(1000) E / N, added in quadrature) is above
+    with the allowance for what N samples cannot see, ``unseen``, in quadrature) is above
     it get GROWTH times their samples per look from independent numbers (seed derived from
     (seed, look)), pooled with what they have, until they meet it or reach ``max_samples``
     (default 64 x samples); ``E_samples`` (and ``E_avg_samples``) say how many each took. Not
@@ -640,10 +779,10 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
                         **param_grid(g))
             d = albedo(sub, mu_grid.reshape(-1)[idx], phi_grid.reshape(-1)[idx], samples=n,
                        seed=sd, **mc)
-            return d.albedo, d.stderr
+            return d.albedo, d.sampling_stderr, d.weight_scale
         out["E"], out["E_stderr"], out["E_samples"] = _refine(
-            out["E"], out["E_stderr"], mu_grid.shape, run_e, samples, target_stderr,
-            max_samples, seed)
+            out["E"], r.sampling_stderr, r.weight_scale, mu_grid.shape, run_e, samples,
+            target_stderr, max_samples, seed, precision)
     channels = m.channels
     if split:
         full, full_s = out["E"], out["E_stderr"]
@@ -661,9 +800,10 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
             sub = {n: v.take(0, axis=i) for n, v in sub.items()}
         ma = Model(name, precision=precision, device=device, width=width, **fixed,
                    **param_grid(sub))
+        parts = {}
         avg, avg_s = albedo_avg(ma, nodes=avg_nodes, phi_nodes=phi_nodes, samples=samples,
                                 estimator=estimator, seed=seed, qmc=qmc, progress=progress,
-                                **quad)
+                                _parts=parts, **quad)
         n_phi = (PHI_NODES if ma.anisotropic else 1) if phi_nodes is None else phi_nodes
         if target_stderr is not None:
             pshape = np.broadcast_shapes(*[v.shape for v in sub.values()]) if sub else ()
@@ -672,11 +812,13 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
                 g = {k: np.broadcast_to(v, pshape).reshape(-1)[idx] for k, v in sub.items()}
                 sm = Model(name, precision=precision, device=device, width=width, **fixed,
                            **param_grid(g))
-                return albedo_avg(sm, nodes=avg_nodes, phi_nodes=phi_nodes, samples=n, seed=sd,
-                                  **mc)
+                pa = {}
+                a, _ = albedo_avg(sm, nodes=avg_nodes, phi_nodes=phi_nodes, samples=n, seed=sd,
+                                  _parts=pa, **mc)
+                return a, pa["sampling_stderr"], pa["weight_scale"]
             avg, avg_s, out["E_avg_samples"] = _refine(
-                np.asarray(avg), np.asarray(avg_s), pshape, run_a, samples, target_stderr,
-                max_samples, seed, what="averages")
+                np.asarray(avg), parts["sampling_stderr"], parts["weight_scale"], pshape, run_a,
+                samples, target_stderr, max_samples, seed, precision, what="averages")
         if split:
             for i, q in enumerate("ABE"):
                 out[q + "_avg"], out[q + "_avg_stderr"] = avg[..., i], avg_s[..., i]

@@ -13,15 +13,21 @@ it occurs and E_avg (the quadrature over the directions), each with its standard
 
 Decision rule (``decide``): with K = D x channels estimates per point and at most R looks (the
 first estimate and up to R - 1 refinements, each quadrupling a direction's samples, up to
-``max_samples``), every estimate gets the interval E +- z s with z the normal quantile of
-1 - e / (R K), e = ``error_rate`` (Student's t with 15 degrees of freedom for quasi-Monte Carlo, whose error
-comes from 16 scrambles). A point *gains* energy when some lower bound exceeds 1, *conserves*
+``max_samples``), every estimate gets the interval E +- (z s + u) with z the normal quantile of
+1 - e / (2 R K), e = ``error_rate`` (Student's t with 15 degrees of freedom for quasi-Monte Carlo,
+whose error comes from 16 scrambles), and u = W ln(2 R K / e) / N the allowance for events the
+N samples did not draw (``unseen_bound``; W the estimator's weight scale, core.weight_scale:
+a region of the sampler's domain with probability above ln(2 R K / e) / N is missed by all N
+samples with probability below e / (2 R K)). A point *gains* energy when some lower bound exceeds 1, *conserves*
 when every upper bound is at most 1, and is *undecided* otherwise. Between looks only the
 estimates of undecided points whose interval contains 1 and whose |E - 1| exceeds the rounding
 allowance (``rounding``: below it no sample count decides) get more samples (and, with
 ``target_stderr``, any estimate whose standard error exceeds it). By the union bound over the K
-estimates and R looks, a point's verdict is wrong with probability at most e, to the extent
-that each estimate is normal (t) with its standard error. The verdict is about the D directions
+estimates, R looks and the two parts of each interval, a point's verdict is wrong with
+probability at most e, to the extent that each estimate is normal (t) with its standard error
+wherever its samples saw the integrand. The stored ``E_stderr`` (and ``E_max_stderr``,
+``E_avg_stderr``) is the standard error with ``core.unseen`` at alpha = 1e-3 in quadrature, as
+``clbrdf.albedo`` reports it. The verdict is about the D directions
 computed: max E over all directions can only be larger.
 
 Random numbers are keyed by position: the first look of direction d at point i uses the
@@ -320,7 +326,7 @@ def z_value(job: dict) -> float:
     """The interval half-width in standard errors (module docstring)."""
     from scipy import stats
     K = len(job["directions"]["mu"]) * job["channels"]
-    p = job["error_rate"] / (looks(job) * K)
+    p = job["error_rate"] / (2 * looks(job) * K)
     return float(stats.t.isf(p, runtime.QMC_STREAMS - 1) if job["qmc"] else stats.norm.isf(p))
 
 
@@ -328,13 +334,23 @@ def rounding(job: dict, E):
     """The rounding allowance added to z s: ROUND_ULPS ulps of max(|E|, 1) (clbrdf.check), a bias
     of the weights in the working precision that no sample count averages out (GGX with kd = 1,
     ks = 0: E = 1 - 7.5e-9 +- 7.7e-11 in single)."""
-    from .check import EPS, ROUND_ULPS
-    return ROUND_ULPS * EPS[job["precision"]] * np.maximum(np.abs(E), 1.0)
+    from .core import rounding_floor
+    return rounding_floor(job["precision"], E)
 
 
-def bounds(job: dict, E, s, z):
-    """Lower and upper bounds of each estimate: E -+ (z s + rounding)."""
-    h = z * s + rounding(job, E)
+def unseen_bound(job: dict, W, N):
+    """The unseen-event allowance of each estimate at the rule's per-estimate error rate
+    (core.unseen with alpha = e / (2 R K)): W ln(2 R K / e) / N; W (n D, channels), N (n D,)."""
+    from .core import unseen
+    K = len(job["directions"]["mu"]) * job["channels"]
+    return unseen(W, np.asarray(N, np.float64)[:, None],
+                  alpha=job["error_rate"] / (2 * looks(job) * K))
+
+
+def bounds(job: dict, E, s, z, u=0.0):
+    """Lower and upper bounds of each estimate: E -+ (z s + u + rounding), u the unseen-event
+    allowance (``unseen_bound``)."""
+    h = z * s + u + rounding(job, E)
     return E - h, E + h
 
 
@@ -358,6 +374,7 @@ def _model(job, device, vals: dict, rows: np.ndarray):
 
 def compute_chunk(job: dict, index: int, device) -> dict:
     """Every array of chunk ``index`` (numpy, keyed as in the store)."""
+    from .core import reported_error, unseen, weight_scale
     i0, i1 = chunk_bounds(job, index)
     n = i1 - i0
     dirs = job["directions"]
@@ -370,15 +387,19 @@ def compute_chunk(job: dict, index: int, device) -> dict:
     wo_all = [s_t * np.cos(phi), s_t * np.sin(phi), mu]
     est = dict(estimator=job["estimator"], qmc=job["qmc"], progress=False)
 
-    def run(rows, samples, seed, id0):
+    def run(rows, samples, seed, id0, scale=False):
         m = _model(job, device, vals, pt[rows])
-        e, s, plan, _ = runtime.run_albedo(m, (len(rows),), [w[dr[rows]] for w in wo_all],
-                                           samples=samples, seed=seed, point0=id0, **est)
+        wo = [w[dr[rows]] for w in wo_all]
+        e, s, plan, _ = runtime.run_albedo(m, (len(rows),), wo, samples=samples, seed=seed,
+                                           point0=id0, **est)
+        if scale:           # the unseen-event scale W of each estimate (core.weight_scale)
+            return e, s, plan.samples, weight_scale(m, (len(rows),), wo, job["estimator"], e)
         return e, s, plan.samples
     # look 0: pair k of point i0 + k // D has generator index (i0 D + k), split where the 32-bit
     # index wraps (the part above 2^32 goes into the seed)
     E = np.empty((n * D, nch))
     S = np.empty((n * D, nch))
+    W = np.empty((n * D, nch))
     N = np.zeros(n * D, dtype=np.uint64)
     a, end = i0 * D, i1 * D
     while a < end:
@@ -386,19 +407,22 @@ def compute_chunk(job: dict, index: int, device) -> dict:
         b = min(end, (hi + 1) << 32)
         rows = np.arange(a - i0 * D, b - i0 * D)
         seed = job["seed"] if hi == 0 else derive_seed(job["seed"], 0, hi)
-        E[rows], S[rows], N[rows] = run(rows, job["samples"], seed, a & 0xFFFFFFFF)
+        E[rows], S[rows], N[rows], W[rows] = run(rows, job["samples"], seed, a & 0xFFFFFFFF,
+                                                 scale=True)
         a = b
     z = z_value(job)
     n_now = job["samples"]
     for r in range(1, looks(job)):
-        lo, hi = bounds(job, E, S, z)
+        U = unseen_bound(job, W, N)
+        lo, hi = bounds(job, E, S, z, U)
         verdict = decide(lo.reshape(n, D, nch), hi.reshape(n, D, nch))
         # more samples can decide an interval around 1 only where |E - 1| exceeds the rounding
         # allowance (GGX at alpha 1e-4: E = 1 - 1e-9, undecided at any sample count)
         open_ = (verdict == UNDECIDED)[pt] & np.any(
             (lo <= 1) & (hi > 1) & (np.abs(E - 1) > rounding(job, E)), axis=1)
         if job["target_stderr"] is not None:
-            open_ |= np.any(S > job["target_stderr"], axis=1)
+            open_ |= np.any(reported_error(S, unseen(W, N[:, None]), rounding(job, E))
+                            > job["target_stderr"], axis=1)
         rows = np.flatnonzero(open_)
         if rows.size == 0:
             break
@@ -410,16 +434,19 @@ def compute_chunk(job: dict, index: int, device) -> dict:
         N[rows] += np.uint64(m_r)
         n_now *= GROWTH
     E3, S3 = E.reshape(n, D, nch), S.reshape(n, D, nch)
+    U3 = unseen(W, N[:, None]).reshape(n, D, nch)       # the reported allowance (alpha 1e-3)
+    H3 = reported_error(S3, U3, rounding(job, E3))      # the reported error
     am = np.argmax(E3, axis=1)                                      # (n, nch)
     take = lambda a: np.take_along_axis(a, am[:, None, :], axis=1)[:, 0]
-    out = {"E": E3.astype(np.float32), "E_stderr": S3.astype(np.float32),
+    out = {"E": E3.astype(np.float32), "E_stderr": H3.astype(np.float32),
            "samples": N.reshape(n, D).astype(np.uint32 if N.max(initial=0) < 2**32 else np.uint64),
-           "E_max": take(E3), "E_max_stderr": take(S3), "E_max_dir": am.astype(np.int16),
-           "verdict": decide(*bounds(job, E3, S3, z))}
+           "E_max": take(E3), "E_max_stderr": take(H3), "E_max_dir": am.astype(np.int16),
+           "verdict": decide(*bounds(job, E3, S3, z, unseen_bound(job, W, N).reshape(n, D, nch)))}
     if dirs["weight"] is not None:
         w = np.asarray(dirs["weight"])[None, :, None]
         out["E_avg"] = (w * E3).sum(axis=1)
-        out["E_avg_stderr"] = np.sqrt(((w * S3) ** 2).sum(axis=1))
+        out["E_avg_stderr"] = reported_error(np.sqrt(((w * S3) ** 2).sum(axis=1)),
+                                             (w * U3).sum(axis=1), rounding(job, out["E_avg"]))
     else:
         out["E_avg"] = out["E_avg_stderr"] = np.full((n, nch), np.nan)
     if nch == 1:
@@ -448,12 +475,15 @@ def _array_specs(job: dict) -> dict:
 
 
 def rule_text(job: dict) -> str:
-    from .check import ROUND_ULPS
+    from .core import ROUND_ULPS
     K = len(job["directions"]["mu"]) * job["channels"]
     dist = "Student t, 15 dof (16 scrambles)" if job["qmc"] else "normal"
-    return (f"E +- (z s + {ROUND_ULPS} ulps of max(|E|, 1)) per estimate, z = {z_value(job):.4f} "
-            f"({dist} quantile of 1 - e / (R K), "
-            f"error rate e = {job['error_rate']:g}, R = {looks(job)} looks, K = {K} estimates per point); "
+    rate = job["error_rate"] / (2 * looks(job) * K)
+    return (f"E +- (z s + W ln(1 / {rate:.3g}) / N + {ROUND_ULPS} ulps of max(|E|, 1)) per "
+            f"estimate, z = {z_value(job):.4f} ({dist} quantile of 1 - e / (2 R K), "
+            f"error rate e = {job['error_rate']:g}, R = {looks(job)} looks, K = {K} estimates per "
+            f"point; W ln(...) / N: events the N samples did not draw, W the estimator's weight "
+            f"scale); "
             f"gains: some lower bound > 1; conserves: every upper bound <= 1; else undecided. "
             f"Undecided estimates whose interval contains 1, with |E - 1| above the rounding "
             f"allowance, get {GROWTH}x the samples per look, up to {job['max_samples']}. "
