@@ -328,7 +328,7 @@ def albedo(m: Model, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 <
     run = runtime.run_albedo if ck is None else ck.run_albedo
     est, err, plan, seconds = run(m, shape, wo, estimator=estimator, samples=samples,
                                   seed=seed, qmc=qmc, progress=progress)
-    scale = weight_scale(m, shape, wo, estimator, est)
+    scale = weight_scale(m, shape, wo, estimator, est, qmc)
     honest = reported_error(err, unseen(scale, plan.samples), rounding_floor(m.precision, est))
     return AlbedoResult(est.reshape(cshape), honest.reshape(cshape), np.broadcast_to(mu, shape),
                         estimator, plan.samples, qmc, int(seed), m.precision, seconds,
@@ -350,13 +350,6 @@ EPS = {"single": 2.0 ** -24, "double": 2.0 ** -53}
 def rounding_floor(precision: str, e):
     return ROUND_ULPS * EPS[precision] * np.maximum(np.abs(e), 1.0)
 
-# Probe numbers u in [0, 1): the sampler's edges (2^-20 from 0 and 1: the lobe's peak and its far
-# tail) and 4 interior values per axis; u2 picks among a mixture's lobes.
-_PROBE_U = np.array([2.0 ** -20, 0.125, 0.375, 0.625, 0.875, 1 - 2.0 ** -20])
-_PROBE_LOBE = np.array([0.1, 0.5, 0.9])
-_PROBE_ROWS = 1 << 20            # probe evaluations per kernel call, at most
-
-
 def reported_error(sampling, unseen_part, floor):
     """The error a Monte Carlo result reports: the sampling error, the unseen-event allowance
     and the rounding floor in quadrature (docs/accuracy/unseen.md)."""
@@ -371,76 +364,20 @@ def unseen(scale, n, alpha: float = UNSEEN_ALPHA):
     return math.log(1 / alpha) * np.asarray(scale, dtype=np.float64) / np.asarray(n, np.float64)
 
 
-def _probe_grid():
-    u0, u1 = np.meshgrid(_PROBE_U, _PROBE_U, indexing="ij")
-    cos_u = np.stack([u0.ravel(), u1.ravel()], -1)
-    brdf_u = np.concatenate([np.column_stack([cos_u, np.full(len(cos_u), l),
-                                              np.full(len(cos_u), 0.5)]) for l in _PROBE_LOBE])
-    return cos_u, brdf_u
-
-
-def weight_scale(m: Model, shape, wo_rows, estimator: str, est=None) -> np.ndarray:
-    """W of ``unseen`` for each point of ``shape`` (channels last): the largest weight of the
-    estimator over probe directions, deterministic and the same for every point: the model's
-    sampler at a grid of numbers that includes the edges of its domain (its lobe's peak and far
-    tail), and cosine-distributed directions on the same grid (where a sampler goes rarely, its
-    weight f cos / pdf is largest). A weight per sample of the estimator: uniform 2 pi f cos,
-    cosine pi f, brdf f cos / pdf, mis twice f cos / (pdf + cos / pi) (two terms per estimate).
-    Weights are >= 0, so max(W, |E|) bounds |weight - E| where a missed event has weight 0, as
-    well as where it has a large one. W = 0 where every probe gives the same weight to rounding
-    (64 ulps): the estimator is then exact (Lambert with cosine or brdf sampling)."""
-    npts = math.prod(shape)
-    nch = m.channels
-    cos_u, brdf_u = _probe_grid()
-    s = np.sqrt(1 - cos_u[:, 0])
-    phi = 2 * np.pi * cos_u[:, 1]
-    cos_dirs = np.stack([s * np.cos(phi), s * np.sin(phi), np.sqrt(cos_u[:, 0])], -1)
-    wo = np.stack([np.broadcast_to(np.asarray(w, np.float64), shape) for w in wo_rows], -1)
-    hi = np.zeros((npts, nch))
-    lo = np.full((npts, nch), np.inf)
-    per = max(1, _PROBE_ROWS // max(npts, 1))
-    lead = (slice(None),) + (None,) * len(shape)
-
-    def weights(wi, f=None, sw=None):
-        """The estimator's weight at wi (probes, points, 3); sw: the sampler's own weights."""
-        c = np.maximum(wi[..., 2], 0.0)
-        if f is None:
-            f = np.asarray(m.eval(np.broadcast_to(wo, wi.shape), wi), np.float64)
-        f = f.reshape(wi.shape[:-1] + (nch,))
-        c = c[..., None]
-        if estimator == "uniform":
-            return 2 * np.pi * f * c
-        if estimator == "cosine":
-            return np.pi * f
-        pdf = np.asarray(m.pdf(np.broadcast_to(wo, wi.shape), wi), np.float64)[..., None]
-        if estimator == "brdf":
-            if sw is not None:
-                return sw
-            with np.errstate(divide="ignore", invalid="ignore"):
-                return np.where(pdf > 0, f * c / pdf, 0.0)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            q = pdf + c / np.pi
-            return np.where(q > 0, 2 * f * c / q, 0.0)
-
-    def take(w):
-        w = np.where(np.isfinite(w), w, 0.0).reshape(w.shape[0], npts, nch)
-        hi[:] = np.maximum(hi, w.max(axis=0))
-        lo[:] = np.minimum(lo, w.min(axis=0))
-
-    dtype = np.float32 if m.precision == "single" else np.float64
-    for i in range(0, len(brdf_u), per):
-        u = brdf_u[i:i + per].astype(dtype)[lead]
-        wi, sw, _ = m.sample(np.broadcast_to(wo, (len(u),) + shape + (3,)),
-                             u=np.broadcast_to(u, (len(u),) + shape + (4,)))
-        take(weights(np.asarray(wi, np.float64),
-                     sw=np.asarray(sw, np.float64).reshape(wi.shape[:-1] + (nch,))))
-    for i in range(0, len(cos_dirs), per):
-        d = cos_dirs[i:i + per][lead]
-        take(weights(np.broadcast_to(d, (len(d),) + shape + (3,)).copy()))
-    eps = 2.0 ** -24 if m.precision == "single" else 2.0 ** -53
+def weight_scale(m: Model, shape, wo_rows, estimator: str, est=None, qmc: bool = False):
+    """W of ``unseen`` for each point of ``shape`` (points, channels): the largest weight of
+    one sample of the estimator over 108 deterministic probes, the same for every point: the
+    model's sampler at a grid of numbers that includes the edges of its domain (its lobe's peak
+    and far tail), where the weight is the estimator's own (uniform 2 pi f cos, cosine pi f, brdf
+    f cos / pdf, mis twice the larger balance term; kernels/integrators.cl, albedo_probe), and
+    |E|. Weights are >= 0, so this bounds |weight - E| where a missed event has weight 0 as well
+    as where it has a large one. W = 0 where every probe gives the same weight to within the
+    rounding floor (``rounding_floor``, already in the reported error): the
+    estimator is exact there (Lambert with cosine or brdf sampling)."""
+    hi, lo = runtime.run_probe(m, shape, wo_rows, estimator=estimator, qmc=qmc)
     if est is not None:
-        hi = np.maximum(hi, np.abs(np.asarray(est, np.float64).reshape(npts, nch)))
-    return np.where(hi - lo <= 64 * eps * hi, 0.0, hi)
+        hi = np.maximum(hi, np.abs(np.asarray(est, np.float64).reshape(hi.shape)))
+    return np.where(hi - lo <= rounding_floor(m.precision, hi), 0.0, hi)
 
 
 GAUSS_NODES = 32

@@ -249,6 +249,43 @@ def run_albedo(m, shape, wo_rows, *, estimator: str, samples: int, seed: int, qm
     return est, err, plan, time.perf_counter() - t0
 
 
+def run_probe(m, shape, wo_rows, *, estimator: str, qmc: bool):
+    """The largest and smallest weight of the estimator over its probes (albedo_probe in
+    kernels/integrators.cl) at every point of ``shape``: two arrays (points, channels). Runs in
+    the albedo program of the same estimator and generator (no other compilation), in launches
+    of at most LAUNCH_POINTS points."""
+    import pyopencl as cl
+    npts = math.prod(shape)
+    nch, W = m.channels, m.width
+    prog = m.program(part="albedo", estimator=estimator, rng="sobol" if qmc else "philox")
+    kern = kernel(prog.program, "albedo_probe")
+    ctx, q = m.device.context, m.device.queue
+    mf = cl.mem_flags
+    hi = np.empty((npts, nch))
+    lo = np.empty((npts, nch))
+    params_full = m._param_block(shape, npts)
+    wo_full = m._soa(shape, wo_rows, npts)
+    for a in range(0, npts, LAUNCH_POINTS):
+        k = min(npts - a, LAUNCH_POINTS)
+        P = np.ascontiguousarray(params_full[:, a:a + k])
+        WO = np.ascontiguousarray(wo_full[:, a:a + k])
+        bp = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=P) if P.size else \
+            cl.Buffer(ctx, mf.READ_ONLY, 8)
+        bw = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=WO)
+        out = np.empty(k * nch * 2 * W, dtype=m.dtype)
+        bo = cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes)
+        kern(q, *ndrange(k, m.device), bp, prog.tables, bw, np.uint64(k), bo)
+        cl.enqueue_copy(q, out, bo)
+        q.finish()
+        out = out.reshape(k, nch, 2, W).astype(np.float64)
+        hi[a:a + k] = out[:, :, 0].max(axis=-1)
+        lo[a:a + k] = out[:, :, 1].min(axis=-1)
+    return hi, lo
+
+
+LAUNCH_POINTS = 1 << 18       # points per probe launch, at most
+
+
 # ---------------------------------------------------------------------------------------------
 # Deterministic quadrature (kernels/integrators.cl, quadrature_panels)
 

@@ -393,7 +393,8 @@ def compute_chunk(job: dict, index: int, device) -> dict:
         e, s, plan, _ = runtime.run_albedo(m, (len(rows),), wo, samples=samples, seed=seed,
                                            point0=id0, **est)
         if scale:           # the unseen-event scale W of each estimate (core.weight_scale)
-            return e, s, plan.samples, weight_scale(m, (len(rows),), wo, job["estimator"], e)
+            return e, s, plan.samples, weight_scale(m, (len(rows),), wo, job["estimator"], e,
+                                                    job["qmc"])
         return e, s, plan.samples
     # look 0: pair k of point i0 + k // D has generator index (i0 D + k), split where the 32-bit
     # index wraps (the part above 2^32 goes into the seed)

@@ -94,6 +94,7 @@ FN realN exppow_Lambda(Microfacet m, vec3 w)
 FN vec3 exppow_sample_ndf(Microfacet m, realN u0, realN u1)
 {
     realN a = 1 / m.shape;
+    u0 = fmax(u0, (realN)REAL_MIN);          /* u0 = 0 is the slope at infinity: take the next */
     realN y = gammaincinv_pq(a, 1 - u0, u0);
     realN r = m.ax * exp((realN)0.5 * a * log(y));                      /* tan theta_h */
     realN c, s = sincos_2pi(u1, &c);

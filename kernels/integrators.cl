@@ -185,6 +185,77 @@ ALWAYS_INLINE spec albedo_estimate(const Params *p, vec3 wo, rand4 u)
 #endif
 }
 
+/* ---- probes of the estimator's weight: the scale W of the unseen-event allowance ----
+ * (clbrdf/core.py, weight_scale). PROBES deterministic numbers, the same for every point:
+ * u0, u1 on the grid 2^-20, 1/8, 3/8, 5/8, 7/8, 1 - 2^-20 (the sampler's edges: its lobe's peak
+ * and far tail) and u2 in 0.1, 0.5, 0.9 (a mixture's lobes). At each the estimator's weight of
+ * one sample: brdf, the sampler's weight; uniform 2 pi f cos and cosine pi f at the sampler's
+ * direction (where a sharp lobe is, which their own directions rarely reach); mis, twice the
+ * larger balance term at the sampler's and at the cosine direction of u (two terms per
+ * estimate, each at most that). */
+#define PROBES 108
+
+FN realN probe_grid(uintN i)
+{
+    realN x = (2 * convert_realN(i) - 1) * (realN)0.125;
+    x = sel(x, (realN)9.5367431640625e-07, TO_MASK(i == (uintN)0));
+    return sel(x, (realN)(1 - 9.5367431640625e-07), TO_MASK(i == (uintN)5));
+}
+
+ALWAYS_INLINE spec probe_weight(const Params *p, vec3 wo, rand4 u)
+{
+    BSample sb = BRDF(sample)(p, wo, u);
+#if ESTIMATOR == ESTIMATOR_BRDF
+    return sb.weight;
+#elif ESTIMATOR == ESTIMATOR_UNIFORM
+    return spec_scale(BRDF(eval)(p, wo, sb.wi), fmax(sb.wi.z, (realN)0) * (2 * PI_R));
+#elif ESTIMATOR == ESTIMATOR_COSINE
+    return spec_scale(BRDF(eval)(p, wo, sb.wi), PI_R);
+#else
+    realN rb = sel((realN)0, 2 / (1 + cosine_hemisphere_pdf(sb.wi) / sb.pdf), sb.pdf > 0);
+    vec3 wc = square_to_cosine_hemisphere(u.u0, u.u1);
+    realN qc = BRDF(pdf)(p, wo, wc) + cosine_hemisphere_pdf(wc);
+    spec a = spec_scale(sb.weight, rb);
+    spec b = spec_scale(BRDF(eval)(p, wo, wc), sel((realN)0, 2 * wc.z / qc, qc > 0));
+    for (int c = 0; c < CHANNELS; ++c)
+        a.c[c] = fmax(a.c[c], b.c[c]);
+    return a;
+#endif
+}
+
+/* Work-item g: point g of the launch. Per channel, the lanes' largest and smallest finite probe
+ * weights at out[(CHANNELS g + c) 2 W + l] and out[(CHANNELS g + c) 2 W + W + l]. */
+__kernel void albedo_probe(const global real_t *P, Tables TABLES, const global real_t *WO,
+                           const ulong npoints, global real_t *out)
+{
+    ulong g = get_global_id(0);
+    if (g >= npoints) return;
+    Params p = splat_params(P, TABLES, npoints, g);
+    vec3 wo = v3((realN)WO[g], (realN)WO[npoints + g], (realN)WO[2 * npoints + g]);
+    realN hi[CHANNELS], lo[CHANNELS];
+    for (int c = 0; c < CHANNELS; ++c) {
+        hi[c] = 0;
+        lo[c] = (realN)INFINITY;
+    }
+    for (uint k = 0; k < PROBES; k += W) {
+        uintN i = (uintN)k + LANE_IDS;
+        i = sel(i, (uintN)(PROBES - 1), i >= (uintN)PROBES);   /* a repeat changes no extreme */
+        rand4 u = {probe_grid(i % 6), probe_grid((i / 6) % 6),
+                   (realN)0.1 + (realN)0.4 * convert_realN(i / 36), (realN)0.5};
+        spec w = probe_weight(&p, wo, u);
+        for (int c = 0; c < CHANNELS; ++c) {
+            realN v = sel((realN)0, w.c[c], isfinite(w.c[c]));
+            hi[c] = fmax(hi[c], v);
+            lo[c] = fmin(lo[c], v);
+        }
+    }
+    for (int c = 0; c < CHANNELS; ++c) {
+        global real_t *o = out + (CHANNELS * g + c) * 2 * W;
+        VSTORE(hi[c], o);
+        VSTORE(lo[c], o + W);
+    }
+}
+
 /* Work-item g of an albedo launch: its point (point0 + g / launch_blocks, whose parameters and
  * wo it loads) and block (block0 + g % launch_blocks); 0 for a padding work-item. */
 FN int albedo_work(const global real_t *P, Tables TABLES, const global real_t *WO,

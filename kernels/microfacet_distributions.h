@@ -142,7 +142,7 @@ FN void beckmann_visible_slopes11(realN cos_t, realN u0, realN u1, realN *sx, re
     }
     b = clamp(b, lo, hi);
     *sx = erfinv_r(b);
-    *sy = erfinv_r(2 * u1 - 1);
+    *sy = erfinv_r(fmax(2 * u1 - 1, -1 + REAL_EPS));     /* u1 = 0: the next number's slope */
 }
 
 FN vec3 beckmann_sample_vndf(Microfacet m, vec3 w, realN u0, realN u1)

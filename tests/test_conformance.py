@@ -231,3 +231,23 @@ def test_quadrature_matches_reference(name, cid, kw):
         short = bool(np.any(est > 1e-6))
         assert short == ((name, cid) in QUAD_SHORT), (mu, est)
         assert short == any(issubclass(x.category, RuntimeWarning) for x in w)
+
+
+# the edges of the documented domain u in [0, 1)^4: 0 and the largest value below 1 in each slot
+_U_EDGES = np.array([[a, b, c, d] for a in (0.0, 0.999999) for b in (0.0, 0.999999)
+                     for c in (0.0, 0.5, 0.999999) for d in (0.0, 0.999999)])
+
+
+@tiered(FAST_EVAL)
+def test_sample_is_finite_at_the_edges_of_u(name, cid, kw):
+    """u = 0 is a valid number (a Sobol point 0, rand() / RAND_MAX): Beckmann's visible-normal
+    sampler (u1 = 0), exp-power and Holzschuch-Pacanowski (u0 = 0) returned wi = NaN; both
+    precisions."""
+    for precision in ("single", "double"):
+        m = clbrdf.Model(name, precision=precision, **kw)
+        for wo in (WO[0], WO[-1], np.array([0.0, 0.0, 1.0]), np.array([0.999, 0.0, 0.0447])):
+            wo = wo / np.linalg.norm(wo)
+            wi, w, p = m.sample(np.broadcast_to(wo, (len(_U_EDGES), 3)), u=_U_EDGES)
+            bad = ~(np.all(np.isfinite(wi), -1) & np.isfinite(p)
+                    & np.all(np.isfinite(np.reshape(w, (len(_U_EDGES), -1))), -1))
+            assert not bad.any(), (precision, wo, _U_EDGES[bad][:4], wi[bad][:4])
