@@ -290,10 +290,13 @@ def layout_table(lay: dict, tab: dict, *, layout: str | None = None, **kw):
         for i, lab in enumerate(labels):
             chans[lab], errs[lab] = raw[..., i], err[..., i]
         info.append({"channels": labels, "computed": t.meta.get("computed"),
-                     "interpolation": t.meta.get("interpolation")})
+                     "interpolation": t.meta.get("interpolation"),
+                     "clamped_cells": t.meta.get("clamped_cells", 0)})
     from .table import Table
     interp = [i["interpolation"] for i in info if i["interpolation"]]
-    meta = dict(base.meta, quantity=order, parts=info)
+    # every part's clamped cells (Filament's cloth channel clamps 448, its GGX channels none)
+    meta = dict(base.meta, quantity=order, parts=info,
+                clamped_cells=sum(i["clamped_cells"] for i in info))
     if interp:
         meta["interpolation"] = max(interp, key=lambda i: i["max_error"])
     return Table(name=tab["name"], axes=base.axes, quantity=order,

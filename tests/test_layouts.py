@@ -292,6 +292,37 @@ def test_average_splits_at_the_critical_angle():
     assert np.all(np.abs(a - exact) < 1e-4), (a, exact)
 
 
+def _conductor_fresnel(c, eta, k):
+    """Unpolarised Fresnel reflectance of a complex index eta + i k by complex arithmetic
+    (Born & Wolf), written here independently of kernels/fresnel.h."""
+    n = eta + 1j * k
+    g = np.sqrt(n * n - (1 - c * c) + 0j)
+    rs = np.abs((c - g) / (c + g)) ** 2
+    rp = np.abs((n * n * c - g) / (n * n * c + g)) ** 2
+    return 0.5 * (rs + rp)
+
+
+@pytest.mark.parametrize("eta, k", [(0.6, 0.0), (0.6, 0.01), (0.6, 0.1), (0.9, 0.3), (1.5, 0.0),
+                                    (0.2, 0.15)])
+def test_conductor_with_eta_below_one_splits_at_its_kink(eta, k):
+    """fresnel=conductor with eta < 1 and k ~ 0 has the dielectric's critical-angle kink (a bend
+    as sharp as k for k > 0): F_avg was 0.678268 for 0.681641 at eta 0.6, k 0 (2.3e-3 off at
+    k 0.01), and E_avg by the quadrature +1.6 % off with an error estimate of 4e-8. Against
+    scipy's adaptive quadrature of the complex-arithmetic Fresnel, told the kink."""
+    from scipy import integrate
+    d = eta * eta - k * k
+    pts = [np.sqrt(1 - d)] if 0 < d < 1 else None
+    want = integrate.quad(lambda c: 2 * c * _conductor_fresnel(c, eta, k), 0, 1, points=pts,
+                          epsabs=1e-13, epsrel=1e-13, limit=500)[0]
+    got = float(clbrdf.fresnel_avg(fresnel="conductor", eta=eta, k=k))
+    assert abs(got - want) < 2e-7, (got, want)
+    if k == 0:      # the near-mirror E_avg equals F_avg; a dielectric of the same eta agrees
+        m = clbrdf.Model("ggx", alpha=1e-4, fresnel="conductor", eta=eta, k=k,
+                         precision="double")
+        a, s = clbrdf.albedo_avg(m, estimator="quadrature")
+        assert abs(a - want) < 1e-4 and abs(a - want) < 10 * s + 5e-5, (a, s, want)
+
+
 def test_split_is_the_schlick_decomposition():
     """E(F0) = F0 A + B: A and B from one table against a direct Schlick estimate at F0 = 0.3
     (independent samples, 5 combined standard errors), and A + B = E (same samples)."""
@@ -691,3 +722,23 @@ def test_cli_lists_the_layouts():
     assert r.returncode == 0 and all(f"{n}:" in r.stdout for n in layouts())
     r = run_inprocess("layouts", "--json")
     assert json.loads(r.stdout).keys() == layouts().keys()
+
+
+def test_clamped_cells_count_every_part():
+    """Filament's dfg table interleaves GGX's B and E with the Charlie cloth channel, computed
+    apart; the metadata counted the clamped cells of the first part only (0, where the cloth
+    channel clamps 448 cells of the published table, true values up to 9.55). A 16 x 16 version
+    of the same table: the count is the cells outside [0, 1] before clamping, every channel."""
+    from clbrdf.layouts import get_layout, layout_table
+    lay = get_layout("filament")
+    tab = json.loads(json.dumps(lay["tables"][0]))
+    tab["axes"] = ["r=0:1:16:centres:min=0.01", "mu=0:1:16:centres"]
+    tab["quantity"][2]["axes"] = ["r=0:1:16:centres:min=0.0316228", "mu=0:1:16:centres"]
+    t = layout_table(lay, tab, samples=1 << 10, check_interpolation=False)
+    parts = t.meta["parts"]
+    unclamped = layout_table(lay, dict(tab, range=None), samples=1 << 10,
+                             check_interpolation=False)
+    want = int(np.count_nonzero((unclamped.values < 0) | (unclamped.values > 1)))
+    assert want > 0 and [p["channels"] for p in parts] == [["B", "E"], ["cloth"]]
+    assert t.meta["clamped_cells"] == want == sum(p["clamped_cells"] for p in parts)
+    assert parts[1]["clamped_cells"] > 0

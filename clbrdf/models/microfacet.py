@@ -82,13 +82,20 @@ def configure(dist: str, shape: str | None = None, header: str | None = None,
 
 
 def critical_mu(defines: dict, values: dict, channels: int):
-    """Dielectric Fresnel with eta < 1 reflects totally for sin theta > eta: F(wi.h), and so E
-    of a smooth surface, has a kink at mu = sqrt(1 - eta^2) (one per channel); NaN elsewhere."""
+    """Where F(c) has a kink (or, for a conductor with small k, a bend as sharp as k): the
+    Fresnel's inner square root sqrt(eta^2 - k^2 - sin^2) (kernels/fresnel.h) changes from
+    imaginary to real at sin^2 = eta^2 - k^2, i.e. mu = sqrt(1 - eta^2 + k^2) where
+    0 < eta^2 - k^2 < 1 (a dielectric: k = 0, total reflection beyond the critical angle), and
+    so does E of a smooth surface (one per channel); NaN elsewhere. Derived from the Fresnel's
+    parameters, not its name: a conductor with eta < 1 and k ~ 0 has the dielectric's kink."""
     import numpy as np
-    if defines.get("MF_FRESNEL") != "FRESNEL_DIELECTRIC":
+    fres = defines.get("MF_FRESNEL")
+    if fres not in ("FRESNEL_DIELECTRIC", "FRESNEL_CONDUCTOR"):
         return None
     eta = np.asarray(values["eta"], dtype=np.float64)
-    mu = np.where(eta < 1, np.sqrt(np.clip(1 - eta * eta, 0, 1)), np.nan)
+    k = np.asarray(values["k"], dtype=np.float64) if fres == "FRESNEL_CONDUCTOR" else 0.0
+    d = eta * eta - k * k
+    mu = np.where((d > 0) & (d < 1), np.sqrt(np.clip(1 - d, 0, 1)), np.nan)
     return mu if channels > 1 else mu[..., None]
 
 
