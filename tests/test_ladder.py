@@ -140,3 +140,18 @@ def test_cli_ladder_refuses_bad_input_before_work(tmp_path):
     r = run_inprocess("ladder", "lambert", "--out", str(tmp_path / "o"))
     assert r.returncode == 2 and "no ladder configuration" in r.stderr
     assert not (tmp_path / "o").exists()
+
+
+def test_a_dropped_diffuse_term_beside_a_sharp_lobe_is_not_within_tolerance():
+    """`clbrdf simplest ggx -t 0.01 -p alpha=0.05 -p kd=0.1` listed "kd=0, single" at a max
+    relative error of f of 1.08e-3: the floor 1e-3 max f (max f 8e4 at the grazing mirror pair)
+    was above kd / pi. Away from the lobe f is the Lambertian term alone: dropping it is a
+    relative error near 1 there (against an independent count of the pairs)."""
+    r = L.simplest("ggx", 0.01, "value", alpha=0.05, kd=0.1)
+    assert all("kd=0" not in c.label or c.error > 0.5 for c in r.candidates)
+    assert "kd=0" not in r.variant.label
+    from clbrdf import Model
+    m = Model("ggx", alpha=0.05, kd=0.1, precision="double")
+    wo, wi = L.pairs()
+    f = m.eval(wo, wi)
+    assert np.median(np.abs(f - 0.1 / np.pi) / f) < 0.5      # most pairs: the diffuse term
