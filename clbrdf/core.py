@@ -267,10 +267,20 @@ class AlbedoResult:
                    {"tol": self.tol, "evaluations": np.asarray(self.evaluations).tolist()})}
 
 
-def albedo(m: Model, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 << 16, seed: int = 0,
-           qmc: bool = False, tol: float | None = None, max_evals: int | None = None,
-           progress: bool = False) -> AlbedoResult:
-    """Directional albedo E(wo) = integral f(wo, wi) cos(theta_i) dwi.
+def _as_model(m) -> Model:
+    """A Model, or a model's name (its defaults, single precision)."""
+    if isinstance(m, str):
+        return Model(m)
+    if not isinstance(m, Model):
+        raise ParameterError(f"model={m!r} is not valid: give a clbrdf.Model or a model name")
+    return m
+
+
+def albedo(m: Model | str, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 << 16,
+           seed: int = 0, qmc: bool = False, tol: float | None = None,
+           max_evals: int | None = None, progress: bool = False) -> AlbedoResult:
+    """Directional albedo E(wo) = integral f(wo, wi) cos(theta_i) dwi of a Model (or a model's
+    name: its defaults).
 
     ``mu`` = cos(theta_o) and ``phi`` (azimuth of wo) broadcast with the model's parameters.
     ``estimator``: ``uniform`` / ``cosine`` hemisphere sampling, ``brdf`` importance sampling,
@@ -284,6 +294,7 @@ def albedo(m: Model, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 <
     The result is bit-identical for the same arguments, device kind and width, whatever the
     chunking or work-group size. Host memory does not grow with ``samples``.
     """
+    m = _as_model(m)
     _check_choice("estimator", estimator, ESTIMATORS)
     quad = estimator == "quadrature"
     if quad:
@@ -369,7 +380,8 @@ def weight_scale(m: Model, shape, wo_rows, estimator: str, est=None, qmc: bool =
     one sample of the estimator over 108 deterministic probes, the same for every point: the
     model's sampler at a grid of numbers that includes the edges of its domain (its lobe's peak
     and far tail), where the weight is the estimator's own (uniform 2 pi f cos, cosine pi f, brdf
-    f cos / pdf, mis twice the larger balance term; kernels/integrators.cl, albedo_probe), and
+    f cos / pdf, mis twice that: each of its two balance terms is at most f cos / pdf;
+    kernels/integrators.cl, albedo_probe), and
     |E|. Weights are >= 0, so this bounds |weight - E| where a missed event has weight 0 as well
     as where it has a large one. W = 0 where every probe gives the same weight to within the
     rounding floor (``rounding_floor``, already in the reported error): the
@@ -427,7 +439,7 @@ def _split_rule(nodes: int, kinks: np.ndarray):
     return np.stack(mus), np.stack(ws)
 
 
-def albedo_avg(m: Model, *, nodes: int = GAUSS_NODES, phi_nodes: int | None = None,
+def albedo_avg(m: Model | str, *, nodes: int = GAUSS_NODES, phi_nodes: int | None = None,
                _parts: dict | None = None, **kw):
     """E_avg = (1/pi) integral E(wo) cos(theta_o) dwo = 2 integral_0^1 E(mu) mu dmu for an
     isotropic model; returns (E_avg, stderr) broadcast over the model's parameters. Gauss-Legendre
@@ -439,6 +451,7 @@ def albedo_avg(m: Model, *, nodes: int = GAUSS_NODES, phi_nodes: int | None = No
     ``estimator='quadrature'``, the sum of the weighted error estimates), not the rule's error in
     mu and phi: the nodes' sampling errors in quadrature and, with it in quadrature, the unseen-
     event allowance of the weighted sum of their weight scales (``unseen``)."""
+    m = _as_model(m)
     if phi_nodes is None:
         phi_nodes = PHI_NODES if m.anisotropic else 1
     mu, phi, c = _avg_rule(nodes, phi_nodes)

@@ -322,21 +322,43 @@ def make_layout(name: str, *, samples=None, estimator=None, progress=False, comm
     return out
 
 
+def _channel_reader(t, names: tuple):
+    """read(**coords) -> the quantity names[0] (or its complement 1 - Q) of table t, from its
+    channel of that name, or from A + B for E (the split tables of three.js and MaterialX);
+    None if t holds neither."""
+    q = list(t.quantity)
+
+    def one(label):
+        for flip in (False, True):
+            want = ("1-" if flip else "") + label
+            if want in q:
+                c = q.index(want)
+                return lambda **k: (lambda v: 1 - v if flip else v)(
+                    np.asarray(t.lookup(**k)) if len(q) == 1 else np.asarray(t.lookup(**k))[..., c])
+        return None
+    read = one(names[0])
+    if read is None and names[0] == "E":
+        a, b = one("A"), one("B")
+        if a is not None and b is not None:
+            return lambda **k: a(**k) + b(**k)
+    return read
+
+
 def _find(tables: dict, directional: bool):
-    """The table of E (or 1 - E) over (mu, r) / the average over r, single quantity."""
-    for t in tables.values():
-        q = t.quantity[0].removeprefix("1-")
-        names = set(t.axis_names)
-        if directional and q == "E" and names == {"mu", "r"}:
-            return t
-        if not directional and q == "E_avg" and names == {"r"}:
-            return t
-    return None
-
-
-def _read(t, **coords):
-    v = t.lookup(**coords)
-    return 1 - v if t.quantity[0].startswith("1-") else v
+    """(table, read(mu, r)) of E over (mu, r) -- or over (mu, alpha), alpha = r^2 -- or of E_avg
+    over r (alpha): a channel E or 1 - E, or A + B; r axes first. None if there is none."""
+    for roughness in ("r", "alpha"):
+        for t in tables.values():
+            names = set(t.axis_names)
+            if names != ({"mu", roughness} if directional else {roughness}):
+                continue
+            read = _channel_reader(t, ("E",) if directional else ("E_avg",))
+            if read is None:
+                continue
+            if roughness == "alpha":
+                return t, (lambda read: lambda r, **k: read(alpha=np.square(r), **k))(read)
+            return t, read
+    return None, None
 
 
 def white_furnace(tables: dict, *, r=(0.1, 0.25, 0.5, 0.75, 1.0), mu=(0.05, 0.2, 0.5, 1.0),
@@ -354,25 +376,28 @@ def white_furnace(tables: dict, *, r=(0.1, 0.25, 0.5, 0.75, 1.0), mu=(0.05, 0.2,
     Both are 1 for a perfect table; what is left is the table's error (interpolation, noise)
     and E_avg's consistency with E. Returns arrays over (r, mu) and the stderr of E_ss."""
     import clbrdf
-    t = _find(tables, True)
+    t, read = _find(tables, True)
     if t is None:
-        raise ParameterError("white_furnace needs a table of E or 1-E over the axes mu and r")
-    ta = _find(tables, False)
+        raise ParameterError("white_furnace needs a table with E (a channel E or 1-E, or A and "
+                             "B) over the axes mu and r (or alpha)")
+    ta, read_avg = _find(tables, False)
     comp = t.meta.get("computed", {})
     fixed = {k: v for k, v in comp.get("options", {}).items()}
+    if "split" in comp:     # E of a split computation (and A + B) is E with F = 1
+        fixed["fresnel"] = "one"
     R, MU = np.meshgrid(np.asarray(r, float), np.asarray(mu, float), indexing="ij")
     m = clbrdf.Model(comp.get("model", "ggx"), alpha=R ** 2, **fixed,
                      **{k: kw.pop(k) for k in ("device", "width", "precision") if k in kw})
     d = clbrdf.albedo(m, MU, samples=samples, seed=seed, qmc=qmc, **kw)
-    e_tab = _read(t, mu=MU, r=R)
+    e_tab = read(mu=MU, r=R)
     out = {"r": R, "mu": MU, "E_ss": d.albedo, "E_ss_stderr": d.stderr, "E_table": e_tab,
            "turquin": d.albedo / e_tab}
     if ta is not None:
         x, w = np.polynomial.legendre.leggauss(64)
         x, w = (x + 1) / 2, w / 2
-        integral = np.stack([np.sum(w * (1 - _read(t, mu=x, r=np.full_like(x, rv))) * x) * 2
+        integral = np.stack([np.sum(w * (1 - read(mu=x, r=np.full_like(x, rv))) * x) * 2
                              for rv in np.asarray(r, float)])[:, None]
-        e_avg = _read(ta, r=R)
+        e_avg = read_avg(r=R)
         with np.errstate(divide="ignore", invalid="ignore"):
             norm = np.where(1 - e_avg > 0, integral / (1 - e_avg), 1.0)
         out["E_avg_table"] = e_avg

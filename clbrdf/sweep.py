@@ -737,7 +737,23 @@ class Sweep:
         self.job = self.manifest["job"]
 
     def __getitem__(self, name):
+        """An array of the store by name (``s["E_max"]``, ``s["params/alpha"]``); slice it into
+        NumPy. Points are not items: ``s["E_max"][i]`` is point i's."""
+        if not isinstance(name, str):
+            raise ParameterError(f"sweep[{name!r}]: index a sweep by array name ("
+                                 f"{', '.join(self.arrays())}), then the array by point")
+        if name not in self:
+            raise ParameterError(f"sweep {str(self.path)!r} has no array {name!r}: it has "
+                                 f"{', '.join(self.arrays())}")
         return self.root[name]
+
+    def __contains__(self, name) -> bool:
+        return isinstance(name, str) and name in self.arrays()
+
+    def arrays(self) -> list:
+        """The names of the store's arrays (parameters as params/NAME, directions/NAME)."""
+        return sorted(list(_array_specs(self.job)) + [f"directions/{k}" for k in
+                                                      ("mu", "phi", "weight")])
 
     @property
     def points(self) -> int:

@@ -61,6 +61,9 @@ class Table:
         a = self.axes[axis]
         n = len(a["values"])
         x = np.asarray(x, dtype=np.float64)
+        if np.isnan(x).any():
+            raise ParameterError(f"table {self.name}: coordinate {a['name']} is NaN; valid is "
+                                 f"any number (clamped to the axis, as the C lookup does)")
         if a.get("spacing") == "list" or "count" not in a:
             v = np.asarray(a["values"], dtype=np.float64)
             if n == 1:
@@ -68,6 +71,8 @@ class Table:
             if v[0] > v[-1]:
                 return np.interp(-x, -v, np.arange(n, dtype=np.float64))
             return np.interp(x, v, np.arange(n, dtype=np.float64))
+        # clamp the coordinate, not only the index: a sqrt or log axis has no index below 0
+        x = np.clip(x, min(a["start"], a["stop"]), max(a["start"], a["stop"]))
         u = unwarp(x, a["start"], a["stop"], a["spacing"])
         i = u * n - 0.5 if a.get("placement") == "centres" else u * (n - 1)
         return np.clip(i, 0, n - 1)
@@ -274,8 +279,15 @@ def save_tables(tables: dict, out, *, prefix: str = "clbrdf") -> list:
 def load_tables(path) -> dict:
     """{name: Table} from a .npz or .exr written by ``save_tables``."""
     path = Path(path)
-    if path.suffix.lower() == ".npz":
-        return _load_npz(path)
-    if path.suffix.lower() == ".exr":
-        return _load_exr(path)
-    raise ParameterError(f"{str(path)!r}: tables load from .npz or .exr (a .h is for C)")
+    suffix = path.suffix.lower()
+    if suffix not in (".npz", ".exr"):
+        raise ParameterError(f"{str(path)!r}: tables load from .npz or .exr (a .h is for C)")
+    if not path.is_file():
+        raise ParameterError(f"{str(path)!r} does not exist or is not a file")
+    try:
+        return _load_npz(path) if suffix == ".npz" else _load_exr(path)
+    except ParameterError:
+        raise
+    except Exception as e:      # empty, truncated or foreign files: zipfile, OpenEXR, JSON, keys
+        raise ParameterError(f"{str(path)!r} is not a readable clbrdf table file "
+                             f"({type(e).__name__}: {e})") from None

@@ -191,8 +191,8 @@ ALWAYS_INLINE spec albedo_estimate(const Params *p, vec3 wo, rand4 u)
  * and far tail) and u2 in 0.1, 0.5, 0.9 (a mixture's lobes). At each the estimator's weight of
  * one sample: brdf, the sampler's weight; uniform 2 pi f cos and cosine pi f at the sampler's
  * direction (where a sharp lobe is, which their own directions rarely reach); mis, twice the
- * larger balance term at the sampler's and at the cosine direction of u (two terms per
- * estimate, each at most that). */
+ * sampler's weight (two balance terms per estimate, each at most f cos / pdf of the sampler:
+ * no evaluation beyond the sampler's, so that the probe adds little to the program). */
 #define PROBES 108
 
 FN realN probe_grid(uintN i)
@@ -212,14 +212,7 @@ ALWAYS_INLINE spec probe_weight(const Params *p, vec3 wo, rand4 u)
 #elif ESTIMATOR == ESTIMATOR_COSINE
     return spec_scale(BRDF(eval)(p, wo, sb.wi), PI_R);
 #else
-    realN rb = sel((realN)0, 2 / (1 + cosine_hemisphere_pdf(sb.wi) / sb.pdf), sb.pdf > 0);
-    vec3 wc = square_to_cosine_hemisphere(u.u0, u.u1);
-    realN qc = BRDF(pdf)(p, wo, wc) + cosine_hemisphere_pdf(wc);
-    spec a = spec_scale(sb.weight, rb);
-    spec b = spec_scale(BRDF(eval)(p, wo, wc), sel((realN)0, 2 * wc.z / qc, qc > 0));
-    for (int c = 0; c < CHANNELS; ++c)
-        a.c[c] = fmax(a.c[c], b.c[c]);
-    return a;
+    return spec_scale(sb.weight, 2);     /* each balance term is at most f cos / pdf_brdf */
 #endif
 }
 

@@ -168,3 +168,14 @@ def test_bad_input_names_parameter_and_range():
         clbrdf.Model("ggx").sample([[0.6, 0.0, -0.8]])
     with pytest.raises(clbrdf.ParameterError, match="mu"):
         clbrdf.albedo(clbrdf.Model("ggx"), 0.0)
+
+
+def test_albedo_takes_a_model_name():
+    """clbrdf.albedo("ggx", mu=0.5) raised AttributeError; the table functions take names."""
+    r = clbrdf.albedo("ggx", mu=0.5, samples=1 << 10)
+    d = clbrdf.albedo(clbrdf.Model("ggx"), mu=0.5, samples=1 << 10)
+    assert r.albedo == d.albedo and r.stderr == d.stderr
+    a = clbrdf.albedo_avg("lambert", samples=64, estimator="cosine")
+    assert np.allclose(a[0], 1.0)           # kd defaults to 1
+    with pytest.raises(clbrdf.ParameterError, match="model"):
+        clbrdf.albedo(3, mu=0.5)

@@ -330,3 +330,15 @@ def test_resume_without_arguments_continues_the_stores_job(tmp_path):
     r = run_inprocess("sweep", "--out", out, "--resume", "-q", "--json")
     assert r.returncode == 0, r.stderr
     assert json.loads(r.stdout)["computed"] == 96
+
+
+def test_sweep_indexing_names_arrays(tmp_path):
+    """open_sweep(S)[0] was a zarr TypeError traceback; a sweep is indexed by array name."""
+    s = clbrdf.sweep("ggx", tmp_path / "s.zarr", axes={"alpha": [0.1, 0.2]}, samples=256)
+    s = clbrdf.open_sweep(tmp_path / "s.zarr")
+    assert "E_max" in s and "params/alpha" in s and 0 not in s and "nope" not in s
+    assert s["E_max"][:].shape == (2,)
+    with pytest.raises(clbrdf.ParameterError, match="array name"):
+        s[0]
+    with pytest.raises(clbrdf.ParameterError, match="no array 'nope'.*E_max"):
+        s["nope"]
