@@ -20,7 +20,6 @@ import hashlib
 import json
 import math
 import os
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -90,9 +89,10 @@ class Checkpoint:
               "directions": _digest(*wo), "shape": list(shape), "estimator": estimator,
               "samples": int(samples), "seed": int(seed), "qmc": bool(qmc),
               "precision": m.precision, "width": m.width, "device": dev.name,
-              "platform": dev.platform, "driver": dev.driver}
+              "platform": dev.platform, "driver": dev.driver,
+              "chunk_points": max(1, CHUNK_SAMPLES // int(samples))}
         call = self._call(fp)
-        per = max(1, CHUNK_SAMPLES // int(samples))
+        per = fp["chunk_points"]
         plan = runtime.AlbedoPlan(samples, qmc, m.width)
         bar = runtime.progress_bar(npts * plan.samples, progress)
         ests, errs, seconds = [], [], 0.0
@@ -138,30 +138,67 @@ def _take(m, shape, i0, i1):
     return sub
 
 
+def lock_dir(path: Path):
+    """An exclusive lock on a directory (a table's checkpoint, a sweep's store): flock on its
+    descriptor, released when the process ends however it ends; returns the descriptor to close,
+    or raises a ParameterError if another process holds it."""
+    import fcntl
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        os.close(fd)
+        raise ParameterError(f"another clbrdf process is computing into {str(path)!r} now (it "
+                             f"holds its lock): wait for it to finish, or write another output") \
+            from None
+    return fd
+
+
 @contextlib.contextmanager
 def checkpoint(path, job: dict, *, resume: bool = False):
     """Checkpoint the albedo calls inside to ``path`` (module docstring). ``job``: what the run
-    is (JSON-able); a resume must give the same."""
+    is (JSON-able); a resume must give the same. The directory is locked while the run holds it
+    (a second process with the same output stops at once, naming it), and a checkpoint left by
+    an interrupted run is never removed here: without ``resume`` that is an error that says how
+    to continue it or where it is to remove it."""
     path = Path(path)
     text = json.dumps(job, sort_keys=True, default=str)
-    if resume:
-        if not (path / "job.json").exists():
+    fresh = False
+    if not resume:
+        try:
+            path.mkdir(parents=True)
+            fresh = True
+        except FileExistsError:
+            pass
+    if not path.is_dir():
+        if resume:
             raise ParameterError(f"--resume: nothing to resume at {str(path)!r} (no earlier run "
                                  f"of this command left one); run without --resume")
-        old = json.loads((path / "job.json").read_text())
-        if old != json.loads(text):
-            diff = sorted(k for k in set(old) | set(job) if old.get(k) != job.get(k))
-            raise ParameterError(f"cannot resume from {str(path)!r}: the earlier run had other "
-                                 f"{', '.join(diff)}; give the same arguments, or run without "
-                                 f"--resume to start again")
-    else:
-        if path.exists():
-            shutil.rmtree(path)
-        path.mkdir(parents=True)
-        _write_atomic(path / "job.json", lambda p: p.write_text(text))
-    ck = Checkpoint(path)
-    token = _current.set(ck)
+        raise ParameterError(f"{str(path)!r} is in the way of the checkpoint (not a directory)")
+    fd = lock_dir(path)
     try:
-        yield ck
+        if resume:
+            if not (path / "job.json").exists():
+                raise ParameterError(f"--resume: nothing to resume at {str(path)!r} (no earlier "
+                                     f"run of this command left one); run without --resume")
+            old = json.loads((path / "job.json").read_text())
+            if old != json.loads(text):
+                diff = sorted(k for k in set(old) | set(job) if old.get(k) != job.get(k))
+                raise ParameterError(f"cannot resume from {str(path)!r}: the earlier run had "
+                                     f"other {', '.join(diff)}; give the same arguments, or "
+                                     f"remove {str(path)!r} to start again")
+        elif not fresh and (path / "job.json").exists():
+            done = len(list(path.glob("call*.c*.npz")))
+            raise ParameterError(f"an interrupted run left its checkpoint at {str(path)!r} "
+                                 f"({done} finished chunks): continue it with the same command "
+                                 f"and --resume, or remove that directory to start again")
+        else:
+            _write_atomic(path / "job.json", lambda p: p.write_text(text))
+        ck = Checkpoint(path)
+        token = _current.set(ck)
+        try:
+            yield ck
+        finally:
+            _current.reset(token)
     finally:
-        _current.reset(token)
+        os.close(fd)

@@ -660,22 +660,34 @@ def sweep(model: str | None = None, out=None, *, resume: bool = False, device=No
             kw["width"] = worker_width(client, kw.get("precision", "single"))
         job = make_job(model, device=None if client is not None else resolve_devices(device)[0],
                        **kw)
+    from .checkpoint import lock_dir
+    if not resume:
+        _create(path, job, _manifest(job, command))
+    lock = lock_dir(path)       # one process per store: a second --resume redid every chunk
+    try:
+        import zarr
+        return _sweep_run(zarr.open_group(str(path), mode="r+"), path, job, client, device,
+                          progress)
+    finally:
+        os.close(lock)
+
+
+def _manifest(job: dict, command) -> dict:
+    import scipy
+    import zarr
     from . import __version__
     from .core import _runtime_environment
-    done = done_chunks(path) if resume else set()
+    return {"job": job, "clbrdf": __version__, "created": time.strftime(
+        "%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "command": command, "host": platform.node(),
+        "rule": rule_text(job), "z": z_value(job), "looks": looks(job),
+        "software": {"numpy": np.__version__, "scipy": scipy.__version__,
+                     "zarr": zarr.__version__},
+        "environment": _runtime_environment()}
+
+
+def _sweep_run(root, path, job, client, device, progress):
+    done = done_chunks(path)
     todo = [i for i in range(n_chunks(job)) if i not in done]
-    if not resume:
-        import scipy
-        import zarr
-        manifest = {"job": job, "clbrdf": __version__, "created": time.strftime(
-            "%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "command": command, "host": platform.node(),
-            "rule": rule_text(job), "z": z_value(job), "looks": looks(job),
-            "software": {"numpy": np.__version__, "scipy": scipy.__version__,
-                         "zarr": zarr.__version__},
-            "environment": _runtime_environment()}
-        _create(path, job, manifest)
-    import zarr
-    root = zarr.open_group(str(path), mode="r+")
     total = job["points"]
     bar = runtime.progress_bar(total, progress, unit="pt")
     bar.update(total - sum(chunk_bounds(job, i)[1] - chunk_bounds(job, i)[0] for i in todo))

@@ -342,3 +342,19 @@ def test_sweep_indexing_names_arrays(tmp_path):
         s[0]
     with pytest.raises(clbrdf.ParameterError, match="no array 'nope'.*E_max"):
         s["nope"]
+
+
+def test_a_second_resume_on_a_running_store_is_refused(tmp_path):
+    """A second `sweep --resume` on a store that another process is computing duplicated all the
+    work; the store is locked while a process computes into it, and the second stops at once
+    naming it (exit 2). The first finishes and equals an uninterrupted run."""
+    out = tmp_path / "s.zarr"
+    p = _cli(SWEEP_ARGS + ["--out", str(out)])
+    t0 = time.monotonic()
+    while _ledger_count(out) < 1 and p.poll() is None and time.monotonic() - t0 < 60:
+        time.sleep(0.002)
+    assert p.poll() is None
+    r = run_inprocess("sweep", "--out", out, "--resume", "-q")
+    assert r.returncode == 2 and "another clbrdf process" in r.stderr, r.stderr
+    assert p.wait(120) == 0, p.stderr.read().decode()
+    assert len(open_sweep(out).done()) == 24

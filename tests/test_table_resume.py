@@ -80,3 +80,44 @@ def test_resume_checks_the_job(tmp_path):
     r = run_inprocess(*other, "--out", out, "--resume")
     assert r.returncode == 2 and "cannot resume" in r.stderr and "samples" in r.stderr, r.stderr
     assert (ck / "job.json").exists() and not out.exists()     # nothing lost or written
+
+
+def _kill_after_chunks(args, ck, n):
+    p = _cli(args)
+    t0 = time.monotonic()
+    while _chunks(ck) < n and p.poll() is None and time.monotonic() - t0 < 120:
+        time.sleep(0.002)
+    return p
+
+
+def test_rerun_without_resume_keeps_the_checkpoint(tmp_path):
+    """Rerunning a killed table without --resume deleted its checkpoint at start-up (hours lost,
+    no warning). Now it stops before any work, says how to continue and where the checkpoint is,
+    and leaves it; --resume then finishes the table."""
+    out = tmp_path / "t.npz"
+    ck = tmp_path / ".t.npz.resume"
+    p = _kill_after_chunks(ARGS + ["--out", str(out)], ck, 3)
+    p.send_signal(signal.SIGKILL)
+    p.wait(30)
+    before = sorted(os.listdir(ck))
+    r = run_inprocess(*ARGS, "--out", out)
+    assert r.returncode == 2 and "--resume" in r.stderr and str(ck) in r.stderr, r.stderr
+    assert sorted(os.listdir(ck)) == before and not out.exists()
+    p = _cli(ARGS + ["--out", str(out), "--resume"])
+    assert p.wait(300) == 0, p.stderr.read().decode()
+    assert out.exists() and not ck.exists()
+
+
+def test_two_runs_with_one_output_do_not_share_a_checkpoint(tmp_path):
+    """Two runs with the same --out shared the checkpoint with no lock, and one died with a
+    --resume error it was never given. The second now stops at once, naming the other process's
+    checkpoint; the first finishes undisturbed."""
+    out = tmp_path / "t.npz"
+    ck = tmp_path / ".t.npz.resume"
+    p = _kill_after_chunks(ARGS + ["--out", str(out)], ck, 1)
+    assert p.poll() is None
+    for extra in ([], ["--resume"]):
+        r = run_inprocess(*ARGS, "--out", out, *extra)
+        assert r.returncode == 2 and "another clbrdf process" in r.stderr, r.stderr
+    assert p.wait(300) == 0, p.stderr.read().decode()
+    assert out.exists() and not ck.exists()
