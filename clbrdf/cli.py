@@ -143,6 +143,24 @@ def _spec(name):
 # ---------------------------------------------------------------------------------------------
 # commands
 
+def _kernel_state(info, run: bool):
+    """(column text, note) of whether the device runs the kernels at its default width in single
+    precision: ok W<width>, "width 1 only", FAILS, or untested (clbrdf.probe's cache; ``run``
+    checks the untested)."""
+    from . import probe
+    w = 1 if info.is_gpu else 16
+    look = probe.kernel_error if run else probe.cached
+    err = look(info, w, "single")
+    if err is ...:
+        return "untested", None
+    if err is None:
+        return f"ok W{w}", None
+    err1 = look(info, 1, "single") if w != 1 else err
+    if err1 is None:
+        return "width 1 only", err
+    return ("FAILS" if err1 is not ... else "untested"), err
+
+
 def cmd_devices(args) -> int:
     from .device import compiler_error, get_device, list_devices
     devs = list_devices()
@@ -153,27 +171,36 @@ def cmd_devices(args) -> int:
         why = None
     except DeviceError as e:
         chosen, why = None, str(e)
-    rows = []
+    from . import probe
+    rows, kernel_notes = [], []
     for d in devs:
         err = compiler_error((d.platform_index, d.device_index))
+        kern, note = _kernel_state(d, args.probe) if err is None else ("-", None)
         rows.append((d.selector, "GPU" if d.is_gpu else "CPU", "yes" if d.has_fp64 else "no",
-                     "ok" if err is None else "FAILS", d.compute_units,
+                     "ok" if err is None else "FAILS", kern, d.compute_units,
                      f"{d.name} [{d.platform}]" + ("  <- default" if d.selector == chosen else ""),
                      err))
+        kernel_notes.append(note)
     if args.json:
         print(json.dumps({"devices": [
-            {"selector": r[0], "type": r[1], "fp64": r[2] == "yes", "compiler_ok": r[6] is None,
-             "compiler_error": r[6], "compute_units": r[4],
-             "name": d.name, "platform": d.platform, "default": r[0] == chosen}
-            for r, d in zip(rows, devs)], "default": chosen}, indent=2))
+            {"selector": r[0], "type": r[1], "fp64": r[2] == "yes", "compiler_ok": r[7] is None,
+             "compiler_error": r[7], "kernels": r[4], "kernel_error": note,
+             "compute_units": r[5], "name": d.name, "platform": d.platform,
+             "default": r[0] == chosen}
+            for r, d, note in zip(rows, devs, kernel_notes)], "default": chosen}, indent=2))
     else:
-        head = ("P:D", "type", "fp64", "compiler", "units", "device [platform]")
-        w = [max(len(str(x)) for x in col) for col in zip(head, *[r[:5] for r in rows])]
-        print("  ".join(str(h).ljust(n) for h, n in zip(head, w)) + "  " + head[5])
-        for r in rows:
-            print("  ".join(str(x).ljust(n) for x, n in zip(r[:5], w)) + "  " + r[5])
-            if r[6]:
-                print(" " * (sum(w) + 2 * len(w)) + f"compiler: {r[6]}")
+        head = ("P:D", "type", "fp64", "compiler", "kernels", "units", "device [platform]")
+        w = [max(len(str(x)) for x in col) for col in zip(head, *[r[:6] for r in rows])]
+        print("  ".join(str(h).ljust(n) for h, n in zip(head, w)) + "  " + head[6])
+        for r, note in zip(rows, kernel_notes):
+            print("  ".join(str(x).ljust(n) for x, n in zip(r[:6], w)) + "  " + r[6])
+            if r[7]:
+                print(" " * (sum(w) + 2 * len(w)) + f"compiler: {r[7]}")
+            if note:
+                print(" " * (sum(w) + 2 * len(w)) + f"kernels: {note}")
+        if any(r[4] == "untested" for r in rows):
+            print(f"kernels: untested devices are checked on first use, or now with "
+                  f"--probe (a child process per device and width, up to {probe.TIMEOUT} s)")
         src = ("--device" if args.device else "CLBRDF_DEVICE" if os.environ.get("CLBRDF_DEVICE")
                else "first working GPU, else newest PoCL's CPU, else CPU")
         print(f"default: {chosen or 'none'} ({src})")
@@ -870,6 +897,10 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Every OpenCL platform and device, whether its compiler works, "
                                    "and which one clbrdf uses by default.")
     p.add_argument("--json", action="store_true", help="print JSON")
+    p.add_argument("--probe", action="store_true",
+                   help="check now that each device builds and runs the kernels (a child process "
+                        "per device and width; otherwise untested devices are checked on first "
+                        "use and the result is cached)")
     p.set_defaults(func=cmd_devices)
 
     p = sub.add_parser("models", parents=[dev], help="list models, parameters and options",

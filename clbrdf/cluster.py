@@ -70,7 +70,8 @@ def _chunk_task(job: dict, index: int, selector):
 
 
 def _width(selector, precision):
-    return _device(selector).default_width(precision)
+    from .runtime import working_width
+    return working_width(_device(selector), precision)
 
 
 def worker_width(client: Client, precision: str, device=None) -> int:

@@ -60,7 +60,7 @@ class Model:
         self.config, self.params = self.spec.configure(channels=channels or 1, **params)
         self.precision = _check_choice("precision", precision, PRECISIONS)
         self.device: Device = get_device(device)
-        self.width = self.device.default_width(precision) if width is None else width
+        self.width = runtime.working_width(self.device, precision) if width is None else width
         if isinstance(self.width, bool) or self.width not in (1, 2, 4, 8, 16):
             raise ParameterError(f"width={self.width!r} is not valid: choose one of 1, 2, 4, 8, 16")
         self.dtype = _dtype(precision)

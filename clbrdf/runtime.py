@@ -27,6 +27,43 @@ LOCAL_SIZE = 64           # work-items per work-group, at most
 _KERNELS: dict = {}
 
 
+class WidthFallbackWarning(UserWarning):
+    """The device's compiler fails on the kernels at the default width; width 1 is used."""
+
+
+_WARNED: set = set()
+
+
+def working_width(device: Device, precision: str) -> int:
+    """The default width of ``device`` (Device.default_width) if the kernels build and compute
+    right there (clbrdf.probe, in a child process, cached), else 1 with a warning that says how
+    to get the fast path; a DeviceError if width 1 fails too. CLBRDF_WIDTH and GPUs (width 1)
+    are taken as they are."""
+    import os
+    import warnings
+    from . import probe
+    from .device import DeviceError
+    w = device.default_width(precision)
+    if os.environ.get("CLBRDF_WIDTH") or os.environ.get("CLBRDF_IN_PROBE") or w == 1:
+        return w
+    err = probe.kernel_error(device.info, w, precision)
+    if err is None:
+        return w
+    err1 = probe.kernel_error(device.info, 1, precision)
+    if err1 is not None:
+        raise DeviceError(f"device {device.info.selector} ({device.info.name} [{device.info.platform}]) "
+                          f"cannot run the kernels: {err}; and at width 1: {err1}. Install "
+                          f"Debian's PoCL (apt-get install pocl-opencl-icd) or choose another "
+                          f"device (clbrdf devices)")
+    if (device.info.selector, precision) not in _WARNED:
+        _WARNED.add((device.info.selector, precision))
+        warnings.warn(f"device {device.info.selector} ({device.info.platform}): {err}; running at "
+                      f"width 1, about 12x slower. For the fast path install Debian's PoCL "
+                      f"(apt-get install pocl-opencl-icd), which clbrdf then prefers",
+                      WidthFallbackWarning, stacklevel=3)
+    return 1
+
+
 def seed_words(seed) -> tuple[np.uint32, np.uint32]:
     s = check_int("seed", seed, 0, 2**64 - 1, "[0, 2^64)")
     return np.uint32(s & 0xFFFFFFFF), np.uint32(s >> 32)

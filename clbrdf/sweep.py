@@ -13,12 +13,14 @@ it occurs and E_avg (the quadrature over the directions), each with its standard
 
 Decision rule (``decide``): with K = D x channels estimates per point and at most R looks (the
 first estimate and up to R - 1 refinements, each quadrupling a direction's samples, up to
-``max_samples``), every estimate gets the interval E +- (z s + u) with z the normal quantile of
-1 - e / (2 R K), e = ``error_rate`` (Student's t with 15 degrees of freedom for quasi-Monte Carlo,
-whose error comes from 16 scrambles), and u = W ln(2 R K / e) / N the allowance for events the
-N samples did not draw (``unseen_bound``; W the estimator's weight scale, core.weight_scale:
-a region of the sampler's domain with probability above ln(2 R K / e) / N is missed by all N
-samples with probability below e / (2 R K)). A point *gains* energy when some lower bound exceeds 1, *conserves*
+``max_samples``), every estimate gets the interval [E - z s - u_lo, E + z s + u_hi] with z the
+normal quantile of 1 - e / (2 R K), e = ``error_rate`` (Student's t with 15 degrees of freedom
+for quasi-Monte Carlo, whose error comes from 16 scrambles), and u the allowances for events the
+N samples did not draw (``unseen_bound``): a region of the sampler's domain with probability
+above ln(2 R K / e) / N is missed by all N samples with probability below e / (2 R K), and
+weights are >= 0, so a missed region lowers E by at most u_lo = ln(2 R K / e) |E| / N and raises
+it by at most u_hi = ln(2 R K / e) W / N (W the estimator's weight scale, core.weight_scale).
+A point *gains* energy when some lower bound exceeds 1, *conserves*
 when every upper bound is at most 1, and is *undecided* otherwise. Between looks only the
 estimates of undecided points whose interval contains 1 and whose |E - 1| exceeds the rounding
 allowance (``rounding``: below it no sample count decides) get more samples (and, with
@@ -209,7 +211,7 @@ def make_job(model: str, *, axes=None, random=None, directions=None, samples: in
                              f"{', '.join(f'{k}={v}' for k, v in dict(cfg.options).items())}: it "
                              f"uses {', '.join(cfg.param_names)}")
     if width is None:
-        width = resolve_devices(device)[0].default_width(precision)
+        width = runtime.working_width(resolve_devices(device)[0], precision)
     if isinstance(width, bool) or width not in (1, 2, 4, 8, 16):
         raise ParameterError(f"width={width!r} is not valid: choose one of 1, 2, 4, 8, 16")
     if directions is None:
@@ -338,20 +340,24 @@ def rounding(job: dict, E):
     return rounding_floor(job["precision"], E)
 
 
-def unseen_bound(job: dict, W, N):
-    """The unseen-event allowance of each estimate at the rule's per-estimate error rate
-    (core.unseen with alpha = e / (2 R K)): W ln(2 R K / e) / N; W (n D, channels), N (n D,)."""
+def unseen_bound(job: dict, E, W, N):
+    """The unseen-event allowances of each estimate at the rule's per-estimate error rate
+    (core.unseen with alpha = e / (2 R K)), below and above: weights are >= 0, so events the N
+    samples missed lower E by at most ln(2 R K / e) |E| / N and raise it by at most
+    ln(2 R K / e) W / N. E, W (n D, channels), N (n D,)."""
     from .core import unseen
     K = len(job["directions"]["mu"]) * job["channels"]
-    return unseen(W, np.asarray(N, np.float64)[:, None],
-                  alpha=job["error_rate"] / (2 * looks(job) * K))
+    n = np.asarray(N, np.float64)[:, None]
+    a = job["error_rate"] / (2 * looks(job) * K)
+    return unseen(np.abs(E), n, alpha=a), unseen(W, n, alpha=a)
 
 
-def bounds(job: dict, E, s, z, u=0.0):
-    """Lower and upper bounds of each estimate: E -+ (z s + u + rounding), u the unseen-event
-    allowance (``unseen_bound``)."""
-    h = z * s + u + rounding(job, E)
-    return E - h, E + h
+def bounds(job: dict, E, s, z, u=(0.0, 0.0)):
+    """Lower and upper bounds of each estimate: E - (z s + u[0] + rounding) and
+    E + (z s + u[1] + rounding), u the unseen-event allowances below and above
+    (``unseen_bound``)."""
+    h = z * s + rounding(job, E)
+    return E - h - u[0], E + h + u[1]
 
 
 def decide(lo, hi):
@@ -414,8 +420,7 @@ def compute_chunk(job: dict, index: int, device) -> dict:
     z = z_value(job)
     n_now = job["samples"]
     for r in range(1, looks(job)):
-        U = unseen_bound(job, W, N)
-        lo, hi = bounds(job, E, S, z, U)
+        lo, hi = bounds(job, E, S, z, unseen_bound(job, E, W, N))
         verdict = decide(lo.reshape(n, D, nch), hi.reshape(n, D, nch))
         # more samples can decide an interval around 1 only where |E - 1| exceeds the rounding
         # allowance (GGX at alpha 1e-4: E = 1 - 1e-9, undecided at any sample count)
@@ -442,7 +447,8 @@ def compute_chunk(job: dict, index: int, device) -> dict:
     out = {"E": E3.astype(np.float32), "E_stderr": H3.astype(np.float32),
            "samples": N.reshape(n, D).astype(np.uint32 if N.max(initial=0) < 2**32 else np.uint64),
            "E_max": take(E3), "E_max_stderr": take(H3), "E_max_dir": am.astype(np.int16),
-           "verdict": decide(*bounds(job, E3, S3, z, unseen_bound(job, W, N).reshape(n, D, nch)))}
+           "verdict": decide(*bounds(job, E3, S3, z, [u.reshape(n, D, nch) for u in
+                                                       unseen_bound(job, E, W, N)]))}
     if dirs["weight"] is not None:
         w = np.asarray(dirs["weight"])[None, :, None]
         out["E_avg"] = (w * E3).sum(axis=1)
@@ -480,11 +486,12 @@ def rule_text(job: dict) -> str:
     K = len(job["directions"]["mu"]) * job["channels"]
     dist = "Student t, 15 dof (16 scrambles)" if job["qmc"] else "normal"
     rate = job["error_rate"] / (2 * looks(job) * K)
-    return (f"E +- (z s + W ln(1 / {rate:.3g}) / N + {ROUND_ULPS} ulps of max(|E|, 1)) per "
-            f"estimate, z = {z_value(job):.4f} ({dist} quantile of 1 - e / (2 R K), "
-            f"error rate e = {job['error_rate']:g}, R = {looks(job)} looks, K = {K} estimates per "
-            f"point; W ln(...) / N: events the N samples did not draw, W the estimator's weight "
-            f"scale); "
+    return (f"[E - z s - |E| ln(1 / {rate:.3g}) / N, E + z s + W ln(1 / {rate:.3g}) / N], each "
+            f"widened by {ROUND_ULPS} ulps of max(|E|, 1), per estimate, z = {z_value(job):.4f} "
+            f"({dist} quantile of 1 - e / (2 R K), error rate e = {job['error_rate']:g}, "
+            f"R = {looks(job)} looks, K = {K} estimates per point; the ln(...) / N terms: events "
+            f"the N samples did not draw, which lower E by at most that share of |E| and raise "
+            f"it by at most that share of W, the estimator's weight scale); "
             f"gains: some lower bound > 1; conserves: every upper bound <= 1; else undecided. "
             f"Undecided estimates whose interval contains 1, with |E - 1| above the rounding "
             f"allowance, get {GROWTH}x the samples per look, up to {job['max_samples']}. "

@@ -121,7 +121,7 @@ def test_cli_check_exit_codes_and_json():
 
 @pytest.mark.parametrize("scale, passes", [(1.0, True), (0.2, False), (5.0, False)])
 def test_stderr_check_detects_a_wrong_stderr(monkeypatch, scale, passes):
-    """The kernels' estimates with their stderr scaled: 5x too small or 5x too large fails
+    """The kernels' estimates with their sampling stderr scaled: 5x too small or 5x too large fails
     `stderr honest`; the true stderr passes."""
     import dataclasses
     C = sys.modules["clbrdf.check"]          # (clbrdf.check is the function)
@@ -129,7 +129,7 @@ def test_stderr_check_detects_a_wrong_stderr(monkeypatch, scale, passes):
 
     def scaled(*a, **kw):
         r = real(*a, **kw)
-        return dataclasses.replace(r, stderr=r.stderr * scale)
+        return dataclasses.replace(r, sampling_stderr=r.sampling_stderr * scale)
     monkeypatch.setattr(C, "albedo", scaled)
     r = C.check_stderr(clbrdf.Model("ggx", alpha=0.3), seed=0, samples=1 << 14)
     assert r.passed == passes, (r.statistic, r.threshold)

@@ -35,7 +35,7 @@ def test_albedo_qmc_uses_documented_sobol_streams(samples, model_cache):
         means = np.array([_cosine_estimates(m, wo, m.random(per, seed=seed, point=point, stream=s,
                                                              qmc=True)).mean() for s in range(16)])
         np.testing.assert_allclose(r.albedo[point], means.mean(), rtol=1e-12)
-        np.testing.assert_allclose(r.stderr[point], means.std(ddof=1) / 4, rtol=1e-9)
+        np.testing.assert_allclose(r.sampling_stderr[point], means.std(ddof=1) / 4, rtol=1e-9)
 
 
 def test_qmc_estimates_are_unbiased(model_cache):
