@@ -14,8 +14,8 @@ from cliutil import run_inprocess
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 
-def cli(*args, cwd=None):
-    env = dict(os.environ)
+def cli(*args, cwd=None, env=None):
+    env = dict(os.environ, **(env or {}))
     env.pop("CLBRDF_DEBUG", None)
     return subprocess.run([sys.executable, "-m", "clbrdf.cli", *map(str, args)], cwd=cwd,
                           env=env, capture_output=True, text=True, timeout=300)
@@ -326,3 +326,16 @@ def test_no_device_exit_3():
     r = cli("albedo", "ggx", "--mu", "0.5", "--device", "no-such-device-xyz")
     assert r.returncode == 3
     assert "no-such-device-xyz" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_devices_report_whether_the_kernels_run(tmp_path):
+    """A compiler that builds a trivial kernel can still fail on ours (PyPI's PoCL 3.0 aborts on
+    the GGX albedo program at width 16); clbrdf checks in a child process, caches the answer,
+    and `devices` shows it: untested before, ok W16 for the default CPU device after --probe."""
+    env = {"CLBRDF_CACHE_DIR": str(tmp_path)}
+    d = json.loads(ok("devices", "--json", env=env).stdout)
+    assert all(x["kernels"] in ("untested", "-") for x in d["devices"])
+    d = json.loads(ok("devices", "--json", "--probe", "--device", d["default"], env=env).stdout)
+    default = [x for x in d["devices"] if x["default"]][0]
+    assert default["kernels"] in ("ok W16", "ok W1") and default["kernel_error"] is None
+    assert (tmp_path / "probes.json").exists()

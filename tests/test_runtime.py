@@ -177,3 +177,25 @@ def test_tables_are_data_and_sources_are_assembled_once():
         assert build.tables_buffer(m.device, names) is build.get_program(
             m.device, m.config, m.precision, m.width).tables
     assert build.tables(("gtr_lambda",)).size == 38 * 28 * 73    # GTR_LT_NS x NA x NT
+
+
+@pytest.mark.slow
+def test_a_device_that_aborts_at_width_16_runs_at_width_1(tmp_path, monkeypatch):
+    """PyPI's PoCL 3.0 (LLVM 14, installed by pyopencl[pocl]) passes a trivial kernel but aborts
+    the process on the GGX albedo program at width 16 (SIGABRT, "Cannot emit physreg copy
+    instruction", after about 80 s here) and hangs on others; width 1 works. The library checks
+    in a child process and falls back to width 1 with a warning naming the fast path; the
+    albedo there is right. Skipped where no such PoCL is installed."""
+    import clbrdf
+    from clbrdf.device import list_devices, pocl_version
+    old = [d for d in list_devices() if (pocl_version(d) or (9,))[:2] == (3, 0)]
+    if not old:
+        pytest.skip("no PoCL 3.0 here")
+    monkeypatch.setenv("CLBRDF_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("CLBRDF_WIDTH", raising=False)
+    with pytest.warns(clbrdf.runtime.WidthFallbackWarning, match="pocl-opencl-icd"):
+        m = clbrdf.Model("ggx", alpha=0.5, device=old[0].selector)
+    assert m.width == 1
+    r = clbrdf.albedo(m, 0.5, samples=1 << 12, qmc=True)
+    from clbrdf.ref import reference
+    assert abs(float(r.albedo) - reference("ggx", alpha=0.5).albedo(0.5)[0]) < 4 * float(r.stderr)
