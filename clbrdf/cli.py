@@ -81,6 +81,12 @@ def parse_params(spec, items) -> dict:
         if name in option_names:
             out[name] = value
             continue
+        if name == "channels":          # RGB with every per-channel parameter grey
+            if value not in ("1", "3"):
+                raise ParameterError(f"parameter channels={value!r} is not valid: channels is 1 "
+                                     f"or 3 (RGB)")
+            out[name] = int(value)
+            continue
         p = spec.param(name)            # unknown names: ParameterError listing the valid ones
         parts = value.split(",")
         if len(parts) > 1 and not (p.spectral and len(parts) == 3):
@@ -94,6 +100,9 @@ def parse_params(spec, items) -> dict:
                                  f"{p.range_text()} ({p.meaning})") from None
         out[name] = v[0] if len(v) == 1 else v
         if len(v) == 3:
+            if out.get("channels", 3) != 3:
+                raise ParameterError(f"parameter {name}={value!r} has three values (R,G,B) but "
+                                     f"channels=1 is given")
             out["channels"] = 3
     return out
 
@@ -337,7 +346,7 @@ def cmd_albedo(args) -> int:
     print(f"estimator {how}, {m.precision} precision, phi {phi:g}, {m.device.info.name}, "
           f"{r.seconds:.3g} s")
     if why:
-        print(f"(no --estimator: {why})")
+        _note(args, f"no --estimator: {why}")
     err = "error" if r.tol else "stderr"
     d = 9 if r.tol else 6                   # digits the error estimate supports
     w = d + 4
@@ -467,7 +476,7 @@ def _layout_table(args, outs) -> int:
            f"{samples} samples per cell, {est}{' + qmc' if args.qmc else ''}")
     print(f"layout {args.layout}: {how}, {seconds:.1f} s; wrote {', '.join(map(str, written))}")
     if why:
-        print(f"(no --estimator: {why})")
+        _note(args, f"no --estimator: {why}")
     return 0
 
 
@@ -576,7 +585,7 @@ def cmd_table(args) -> int:
             written = tables.save_table(table, out)
         print(tables.summary(table, seconds, written))
     if why:
-        print(f"(no --estimator: {why})")
+        _note(args, f"no --estimator: {why}")
     return 0
 
 
@@ -791,8 +800,13 @@ def cmd_ladder(args) -> int:
 
 RECOMMENDED = ("brdf", True)
 RECOMMENDED_WHY = ("brdf with Sobol points, the fastest estimator to a max error of 1e-3 for 10 "
-                   "of 13 models and to 1e-4 for 7 (docs/accuracy/README.md); --estimator "
+                   "of 13 models and to 1e-4 for 7 (as `clbrdf accuracy` measures); --estimator "
                    "chooses another")
+
+
+def _note(args, text: str) -> None:
+    """A note for the user on stderr (stdout carries the results)."""
+    print(f"clbrdf {args.command}: note: {text}", file=sys.stderr)
 
 
 def _choose_estimator(args) -> str | None:
@@ -875,8 +889,8 @@ def build_parser() -> argparse.ArgumentParser:
                             "mis (balance heuristic of brdf and cosine), or quadrature "
                             "(deterministic, adaptive Gauss-Legendre in the sampler's unit "
                             "square) (default: brdf with Sobol points, the fastest for most "
-                            "models at the errors of the default sample count, "
-                            "docs/accuracy/README.md; quadrature when --tol is given)")
+                            "models at the errors of the default sample count, as `clbrdf "
+                            "accuracy` measures; quadrature when --tol is given)")
         p.add_argument("--tol", type=float, default=None, metavar="T",
                        help="quadrature: error target per point (default 1e-6 single, 1e-7 "
                             "double)")
@@ -991,7 +1005,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "scrambled-Sobol points over their box) the directional albedo "
                                    "at D outgoing directions, its maximum and E_avg with standard "
                                    "errors, and a verdict: gains energy, conserves or undecided "
-                                   "(docs/sweeps.md states the rule and its error rate). Chunks are "
+                                   "(the store's attributes state the rule and its error rate). Chunks are "
                                    "written as they finish; Ctrl-C or SIGTERM stops after the "
                                    "chunks in progress; --resume continues.")
     model_arg(p, "may be left out with --resume: the store's own job")

@@ -624,8 +624,10 @@ def warn_if_useless(m, mu, estimator: str, stacklevel: int = 3):
         use = ("Every Monte Carlo estimator was biased there at the map's 2^16 samples: use "
                "estimator='quadrature' and check its error estimate")
     warnings.warn(f"estimator={estimator!r} is marked useless by the stability map for "
-                  f"{m.name} at {frac:.0%} of these points (e.g. {example}: {why}; "
-                  f"docs/stability/README.md); its error bar may be far too small. {use}.",
+                  f"{m.name} at {frac:.0%} of these points (e.g. {example}: {why}; the map "
+                  f"ships in clbrdf/data/stability.csv and `clbrdf stability` remakes it); its "
+                  f"estimates are unreliable there and their reported error, which allows for "
+                  f"what the samples cannot see, may be far larger than E. {use}.",
                   UselessEstimatorWarning, stacklevel=stacklevel)
 
 

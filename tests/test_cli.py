@@ -339,3 +339,22 @@ def test_devices_report_whether_the_kernels_run(tmp_path):
     default = [x for x in d["devices"] if x["default"]][0]
     assert default["kernels"] in ("ok W16", "ok W1") and default["kernel_error"] is None
     assert (tmp_path / "probes.json").exists()
+
+
+def test_channels_param_makes_an_rgb_model(tmp_path):
+    """The README's `-p channels=3` was rejected by eval, albedo and table ("no parameter
+    'channels'"); it makes the model RGB with every per-channel parameter grey."""
+    r = ok("eval", "ggx", "-p", "channels=3", "-p", "kd=0.1", "--wi", "0,0,1", "--wo", "0,0,1",
+           "--json")
+    v = json.loads(r.stdout)["value"]
+    assert len(v) == 3 and v[0] == v[1] == v[2] > 0
+    r = run_inprocess("table", "ggx", "-p", "channels=3", "--axis", "mu=0.5,1",
+                      "--axis", "alpha=0.1,0.5", "-n", "256", "--out", tmp_path / "t.npz")
+    assert r.returncode == 0, r.stderr
+    assert np.load(tmp_path / "t.npz")["E"].shape == (2, 2, 3)
+    for bad, msg in (("channels=2", "channels is 1 or 3"), ("channels=x", "channels is 1 or 3")):
+        r = run_inprocess("eval", "ggx", "-p", bad, "--wi", "0,0,1", "--wo", "0,0,1")
+        assert r.returncode == 2 and msg in r.stderr, r.stderr
+    r = run_inprocess("eval", "ggx", "-p", "channels=1", "-p", "kd=0.1,0.2,0.3", "--wi", "0,0,1",
+                      "--wo", "0,0,1")
+    assert r.returncode == 2 and "channels=1" in r.stderr, r.stderr

@@ -64,7 +64,7 @@ SPEC = ModelSpec(
     ref="schlick",
     title="Schlick 1994 customizable reflectance (SINGLE / DOUBLE, eq 12/15/17/18)",
     reference="Schlick 1994 eq 9 (materials), 10-11 (S), 12/15/17/18 (D), 14 (Z, A), 16 (G); "
-              "sampler: docs/models/schlick.md",
+              "sampler: ours, the paper has none (kernels/schlick.h)",
     header="schlick.h",
     prefix="schlick",
     params=PARAMS,
