@@ -47,7 +47,7 @@ CASES = [
     # a published fit (RGB, every parameter from the preset)
     ("ashikhmin_shirley-preset", "ashikhmin_shirley", {"preset": "alum-bronze:E1"}),
 ]
-WARN = ["-Wall", "-Wextra", "-Wno-unused-parameter", "-Werror", "-pedantic"]
+WARN = ["-Wall", "-Wextra", "-Werror", "-pedantic"]
 
 _BODY = r"""
     vec3 wo = v3((real_t)a[0], (real_t)a[1], (real_t)a[2]);

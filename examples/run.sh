@@ -16,7 +16,7 @@ PY=${CLBRDF_PYTHON:-.venv/bin/python}
 ALPHA=0.3 MU=0.5 N=1048576 SEED=7 TOL=1e-5
 OUT=$(mktemp -d)
 trap 'rm -rf "$OUT"' EXIT
-WARN=(-Wall -Wextra -Wno-unused-parameter -Werror)
+WARN=(-Wall -Wextra -Werror)
 fail=0
 
 python_albedo() {

@@ -75,6 +75,7 @@ FN realN as_one_minus_pow5(realN x)
 /* Diffuse terms of channel ch at cos_i, cos_o (eq 14, and kd / pi). */
 FN realN as_diffuse(const ashikhmin_shirley_params *p, realN ci, realN co, int ch)
 {
+    (void)ch; (void)ci; (void)co; (void)p;   /* the interface's; not every configuration reads it */
     realN d = 0;
 #if AS_RD
     d += (realN)(28.0 / 23.0) * INV_PI_R * p->rd[ch] * (1 - p->rs[ch])
@@ -113,6 +114,7 @@ ALWAYS_INLINE spec ashikhmin_shirley_eval(const ashikhmin_shirley_params *p, vec
  * (1 - (1 - n.wi/2)^5) n.wi over the hemisphere is 23 pi / 28, so rd (1 - rs)(1 - (1 - cos_o/2)^5) + kd. */
 FN realN as_diffuse_albedo(const ashikhmin_shirley_params *p, realN co, int ch)
 {
+    (void)ch; (void)co; (void)p;   /* the interface's; not every configuration reads it */
     realN d = 0;
 #if AS_RD
     d += p->rd[ch] * (1 - p->rs[ch]) * as_one_minus_pow5(co);
@@ -126,6 +128,7 @@ FN realN as_diffuse_albedo(const ashikhmin_shirley_params *p, realN co, int ch)
 /* Probability of the cosine lobe in the sampling mixture. */
 FN realN as_diffuse_prob(const ashikhmin_shirley_params *p, vec3 wo)
 {
+    (void)p; (void)wo;   /* the interface's; not every configuration reads it */
 #if AS_DIFFUSE
     realN wd = 0, ws = 0;
     for (int c = 0; c < CHANNELS; ++c) {

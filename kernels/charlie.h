@@ -62,6 +62,7 @@ FN realN charlie_Lambda(const charlie_params *p, realN mu)
 /* f / (ks D): the visibility term G / (4 cos_i cos_o) or Ashikhmin's. */
 FN realN charlie_V(const charlie_params *p, realN ci, realN co)
 {
+    (void)p;   /* the interface's; not every configuration reads it */
 #if CHARLIE_V == 1
     return 1 / (4 * (ci + co - ci * co));
 #else

@@ -117,6 +117,7 @@ ALWAYS_INLINE realN holzschuch_pacanowski_pdf(const holzschuch_pacanowski_params
 #define holzschuch_pacanowski_LOBES 2
 FN void holzschuch_pacanowski_lobe_ends(const holzschuch_pacanowski_params *p, vec3 wo, realN *ends)
 {
+    (void)wo;   /* the interface's; not every configuration reads it */
     hp_lobe_probs(p, ends);                   /* reflection lobe */
     ends[1] = (realN)1;                       /* cosine */
 }

@@ -55,6 +55,7 @@ FN realN low_h_norm_inv(realN b, realN c)
 
 FN realN low_mf_diffuse_prob(const low_microfacet_params *p, vec3 wo)
 {
+    (void)p; (void)wo;   /* the interface's; not every configuration reads it */
 #if LOW_DIFFUSE
     realN a = 0, kd = 0;
     for (int c = 0; c < CHANNELS; ++c) {

@@ -66,6 +66,7 @@ FN Microfacet mf_distribution(const microfacet_params *p)
 /* ks F(c) of channel ch. */
 FN realN mf_fresnel(const microfacet_params *p, realN c, int ch)
 {
+    (void)c; (void)ch; (void)p;   /* the interface's; not every configuration reads it */
 #if MF_FRESNEL == FRESNEL_SCHLICK && MF_F90
     realN F = fresnel_schlick_f90(p->f0[ch], p->f90[ch], c);
 #elif MF_FRESNEL == FRESNEL_SCHLICK
@@ -104,6 +105,7 @@ FN realN mf_G1(Microfacet m, vec3 w) { return mf_G1c(m, w, (realN)1); }
 /* Masking-shadowing G(wo, wi, h) (MODELS.md section 1). */
 FN realN mf_G(Microfacet m, vec3 wo, vec3 wi, vec3 h)
 {
+    (void)h; (void)m;   /* the interface's; not every configuration reads it */
 #if MF_MASKING == MASKING_CORRELATED
     return 1 / (1 + MF(Lambda)(m, wi) + MF(Lambda)(m, wo));
 #elif MF_MASKING == MASKING_SEPARABLE
@@ -118,6 +120,7 @@ FN realN mf_G(Microfacet m, vec3 wo, vec3 wi, vec3 h)
 /* G(wo, wi, h) / G1(wo): the visible-normal sampler's weight without Fresnel. */
 FN realN mf_G_over_G1(Microfacet m, vec3 wo, vec3 wi, vec3 h)
 {
+    (void)h; (void)wo;   /* the interface's; not every configuration reads it */
 #if MF_MASKING == MASKING_CORRELATED
     return mf_G1c(m, wi, 1 + MF(Lambda)(m, wo));
 #elif MF_MASKING == MASKING_SEPARABLE
@@ -130,6 +133,7 @@ FN realN mf_G_over_G1(Microfacet m, vec3 wo, vec3 wi, vec3 h)
 /* Probability of the Lambertian lobe in the sampling mixture. */
 FN realN mf_diffuse_prob(const microfacet_params *p, vec3 wo)
 {
+    (void)p; (void)wo;   /* the interface's; not every configuration reads it */
 #if MF_DIFFUSE
     realN kd = 0, fs = 0;
     for (int c = 0; c < CHANNELS; ++c) {
@@ -164,6 +168,7 @@ ALWAYS_INLINE spec microfacet_eval(const microfacet_params *p, vec3 wo, vec3 wi)
 /* Density of the specular lobe's sampler, per unit solid angle of wi; oh = wo.h. */
 FN realN mf_lobe_pdf(Microfacet m, vec3 wo, vec3 h, realN oh)
 {
+    (void)oh; (void)wo;   /* the interface's; not every configuration reads it */
 #if MF_SAMPLER == SAMPLER_VNDF
     return mf_G1(m, wo) * MF(D)(m, h) / (4 * wo.z);
 #else

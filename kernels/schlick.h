@@ -75,6 +75,7 @@ FN SchLayer sch_layer2(const schlick_params *p)
  * u = wo.h < 0 made S > 1 and R = S D + (1 - S) S2 D2 negative (-1e5 /sr with a sharp layer 2) */
 FN realN sch_S(realN C, realN u)
 {
+    (void)u;   /* the interface's; not every configuration reads it */
 #if SCH_FRESNEL
     return fresnel_schlick(C, u);
 #else
@@ -166,6 +167,7 @@ FN realN sch_agm(realN p)
 /* Solid-angle density of wi for the half-vector lobe of one layer: t Z A / (pi <A> 4 wo.h) */
 FN realN sch_lobe_pdf(SchLayer L, int aniso, vec3 wo, vec3 h, realN u)
 {
+    (void)wo;   /* the interface's; not every configuration reads it */
     realN a_rel = aniso ? sch_A(L, h, aniso) * sch_agm(L.p) * rsqrt(L.p) : (realN)1;
     return h.z * sch_Z(L.r, h) * a_rel * (realN)(0.25 * INV_PI_R) / u;
 }
@@ -186,6 +188,7 @@ FN realN sch_diffuse_prob(SchLayer L, realN v)
 /* probability of layer 1 */
 FN realN sch_layer_prob(const schlick_params *p, realN v)
 {
+    (void)p; (void)v;   /* the interface's; not every configuration reads it */
 #if SCH_DOUBLE
     realN w1 = 0, w2 = 0;
     for (int c = 0; c < CHANNELS; ++c) {

@@ -49,6 +49,7 @@ FN realN sgdb_inv_kap(const sgd_bagher_params *P, int ch) { return sgd_inv_kap(P
 
 FN realN sgdb_kap(const sgd_bagher_params *P, int ch, realN inv_kap)
 {
+    (void)P; (void)ch;   /* the interface's; not every configuration reads it */
 #if SGDB_KAP
     return P->kap[ch];
 #else

@@ -38,6 +38,7 @@ FN realN ward_lobe_pdf(const ward_params *p, vec3 s, realN oh)
 
 FN realN ward_diffuse_prob(const ward_params *p)
 {
+    (void)p;   /* the interface's; not every configuration reads it */
 #if WARD_DIFFUSE
     realN kd = 0, ks = 0;
     for (int c = 0; c < CHANNELS; ++c) {
@@ -82,6 +83,7 @@ ALWAYS_INLINE realN ward_pdf(const ward_params *p, vec3 wo, vec3 wi)
 #define ward_LOBES 2
 FN void ward_lobe_ends(const ward_params *p, vec3 wo, realN *ends)
 {
+    (void)wo;   /* the interface's; not every configuration reads it */
     ends[0] = ward_diffuse_prob(p);           /* cosine */
     ends[1] = (realN)1;                       /* Gaussian lobe */
 }
