@@ -462,7 +462,11 @@ def _layout_table(args, outs) -> int:
     _model(lay["model"], args, dict(lay.get("fixed", {})))      # no device: fail before work
     t0 = time.perf_counter()
     with _resumable(args, outs[0]):
-        tables = make_layout(args.layout, samples=samples, estimator=est, seed=args.seed,
+        # the user's --estimator for every channel; without it, a channel of another model
+        # keeps the layout's choice (Filament's cloth: mis)
+        tables = make_layout(args.layout, samples=samples,
+                             estimator=None if why and est != "quadrature" else est,
+                             seed=args.seed,
                              qmc=args.qmc, precision=args.precision, device=args.device,
                              width=args.width, progress=True, command=_no_resume(cmd),
                              **_quad_args(args), **_target_args(args))
@@ -607,6 +611,12 @@ def _c_name(s: str) -> str:
     return re.sub(r"[^A-Za-z0-9_]", "_", s)
 
 
+# the options of `sweep` that are part of its job (the store's); the others say how to run it
+JOB_FLAGS = ("--param", "-p", "--axis", "--random", "--directions", "--samples", "-n",
+             "--max-samples", "--target-stderr", "--estimator", "--qmc", "--error-rate", "--seed",
+             "--precision", "--width", "--chunk", "--preset")
+
+
 def cmd_sweep(args) -> int:
     from .sweep import make_job, resolve_devices, split_device, sweep
     kw = {}
@@ -619,10 +629,16 @@ def cmd_sweep(args) -> int:
                   chunk=args.chunk, preset=args.preset)
     elif not args.resume:
         raise ParameterError("MODEL is required (it may be left out only with --resume)")
+    else:       # --resume without MODEL continues the store's job as it is
+        given = sorted({a.split("=", 1)[0] for a in args.argv if a.split("=", 1)[0] in JOB_FLAGS})
+        if given:
+            raise ParameterError(f"{', '.join(given)} with --resume and no MODEL: the store's "
+                                 f"job fixes them; leave them out, or give MODEL and every "
+                                 f"argument of the job to have them checked")
     client = None
     devices = None
     if args.cluster:
-        if args.split:
+        if args.split is not None:
             raise ParameterError("--split is for local devices, not with --cluster")
         if args.device and len(args.device) > 1:
             raise ParameterError("--cluster takes one --device selector (each worker's)")
@@ -639,7 +655,7 @@ def cmd_sweep(args) -> int:
         devices = resolve_devices(args.device if args.device else None)
         for d in devices:
             _usable(d)
-        if args.split:
+        if args.split is not None:
             devices = [s for d in devices for s in split_device(d, args.split)]
     t0 = time.perf_counter()
     from .sweep import open_sweep, chunk_bounds

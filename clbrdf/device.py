@@ -120,7 +120,12 @@ def _pick(selector: str | None):
     devs = _all_devices()
     if not devs:
         raise DeviceError(NO_DEVICE_HELP)
-    if selector is None or selector == "":
+    if isinstance(selector, str) and not selector.strip():
+        from .spec import ParameterError
+        valid = ", ".join(f"{i.selector} ({i.name})" for i, _ in devs)
+        raise ParameterError(f"device={selector!r} is empty: give P:D or a part of a device's or "
+                          f"platform's name; valid: {valid}")
+    if selector is None:
         selector = os.environ.get("CLBRDF_DEVICE") or None
     if selector is None:
         # the first device in default_order whose compiler works

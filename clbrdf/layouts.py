@@ -262,8 +262,9 @@ def layout_table(lay: dict, tab: dict, *, layout: str | None = None, **kw):
     Charlie sheen beside GGX's B and E), computed apart and interleaved."""
     model, fixed = table_config(lay, tab)
     qs = tab["quantity"] if isinstance(tab["quantity"], list) else [tab["quantity"]]
+    chosen = kw.pop("estimator", None)      # the caller's, for every channel; None: the layout's
     common = dict(value_range=tab.get("range"), encoding=lay.get("encoding", "float32"),
-                  layout=layout, **kw)
+                  layout=layout, estimator=chosen or "brdf", **kw)
     plain = [q for q in qs if isinstance(q, str)]
     parts = []                      # (labels, Table) in channel order
     if plain:
@@ -271,7 +272,7 @@ def layout_table(lay: dict, tab: dict, *, layout: str | None = None, **kw):
                                            **common)))
     for q in qs:
         if isinstance(q, dict):
-            own = dict(common, **{k: q[k] for k in ("estimator",) if k in q})
+            own = dict(common, **{k: q[k] for k in ("estimator",) if k in q and chosen is None})
             t = compute_table(q.get("model", model), tab["name"], q["quantity"],
                               q.get("axes", tab["axes"]), fixed=q.get("fixed", {}), **own)
             parts.append(([q.get("label", q["quantity"])], t))
@@ -307,10 +308,11 @@ def layout_table(lay: dict, tab: dict, *, layout: str | None = None, **kw):
 
 def make_layout(name: str, *, samples=None, estimator=None, progress=False, command=None, **kw):
     """Every table of layout ``name`` (clbrdf/data/layouts.json) at the layout's published sample
-    count unless ``samples`` is given; returns {table name: Table}."""
+    count unless ``samples`` is given; returns {table name: Table}. ``estimator``: every
+    channel's; None: brdf, and a channel of another model its layout's choice (Filament's cloth
+    channel: mis)."""
     lay = get_layout(name)
     samples = lay.get("samples", 1 << 16) if samples is None else samples
-    estimator = "brdf" if estimator is None else estimator
     out = {}
     for tab in lay["tables"]:
         t = layout_table(lay, tab, layout=name, samples=samples, estimator=estimator,

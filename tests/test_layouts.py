@@ -801,3 +801,17 @@ def test_white_furnace_takes_every_layout_with_an_e(name):
     assert f["E_ss"].min() < 0.5          # uncompensated GGX loses up to 69 % (r 1, mu 1)
     if "kulla_conty" in f:
         assert np.all(np.abs(f["kulla_conty"] - 1) <= 2 * slack), (name, f["kulla_conty"])
+
+
+def test_the_users_estimator_applies_to_every_channel():
+    """`--estimator` was silently ignored for a layout channel of another model (Filament's
+    cloth channel kept its mis); the caller's estimator now applies to every channel, and
+    without one the layout's choice stands."""
+    from clbrdf.layouts import get_layout, layout_table
+    lay = get_layout("filament")
+    tab = json.loads(json.dumps(lay["tables"][0]))
+    tab["axes"] = ["r=0:1:4:centres:min=0.01", "mu=0:1:4:centres"]
+    tab["quantity"][2]["axes"] = ["r=0:1:4:centres:min=0.0316228", "mu=0:1:4:centres"]
+    for given, want in ((None, ["brdf", "mis"]), ("cosine", ["cosine", "cosine"])):
+        t = layout_table(lay, tab, samples=64, estimator=given, check_interpolation=False)
+        assert [p["computed"]["estimator"] for p in t.meta["parts"]] == want, given

@@ -358,3 +358,23 @@ def test_a_second_resume_on_a_running_store_is_refused(tmp_path):
     assert r.returncode == 2 and "another clbrdf process" in r.stderr, r.stderr
     assert p.wait(120) == 0, p.stderr.read().decode()
     assert len(open_sweep(out).done()) == 24
+
+
+def test_arguments_that_would_be_ignored_are_refused(tmp_path):
+    """`sweep --resume --error-rate/--seed` without MODEL, `--split 0` and `--device ""` were
+    silently ignored; each is now bad input (exit 2) naming the argument."""
+    out = tmp_path / "s.zarr"
+    r = run_inprocess("sweep", "ggx", "--axis", "alpha=0.1,0.2", "-n", "256", "--out", out, "-q")
+    assert r.returncode == 0, r.stderr
+    for argv, msg in ((("--resume", "--seed", "3"), "--seed"),
+                      (("--resume", "--error-rate=0.01"), "--error-rate"),
+                      (("--resume", "-n", "512", "--qmc"), "--qmc, -n")):
+        r = run_inprocess("sweep", "--out", out, *argv)
+        assert r.returncode == 2 and msg in r.stderr and "store's job" in r.stderr, r.stderr
+    r = run_inprocess("sweep", "ggx", "--axis", "alpha=0.1", "--out", tmp_path / "b.zarr",
+                      "--split", "0")
+    assert r.returncode == 2 and "split=0" in r.stderr, r.stderr
+    r = run_inprocess("sweep", "ggx", "--axis", "alpha=0.1", "--out", tmp_path / "c.zarr",
+                      "--device", "")
+    assert r.returncode == 2 and "device='' is empty" in r.stderr, r.stderr
+    assert not (tmp_path / "b.zarr").exists() and not (tmp_path / "c.zarr").exists()
