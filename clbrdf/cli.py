@@ -1221,6 +1221,11 @@ def _run(args) -> int:
     except Terminated:
         print("clbrdf: terminated", file=sys.stderr)
         return 143
+    except OSError as e:            # a full or read-only disk, a missing directory: say where
+        if os.environ.get("CLBRDF_DEBUG"):
+            raise
+        print(f"clbrdf {args.command}: error: {_os_error(e, args)}", file=sys.stderr)
+        return 1
     except Exception as e:
         if os.environ.get("CLBRDF_DEBUG"):
             raise
@@ -1228,6 +1233,18 @@ def _run(args) -> int:
         msg = _clean(e) or type(e).__name__
         print(f"clbrdf {args.command}: {kind}: {msg}", file=sys.stderr)
         return EXIT_INPUT if isinstance(e, ValueError) else 1
+
+
+def _os_error(e: OSError, args) -> str:
+    """An OSError as a sentence with the file it concerns: its own filename, else the
+    command's outputs (a write into a temporary file or a checkpoint beside them)."""
+    what = e.strerror or str(e)
+    if e.filename is not None:
+        where = str(e.filename) + (f" -> {e.filename2}" if e.filename2 is not None else "")
+        return f"{what}: {where}"
+    out = getattr(args, "out", None)
+    outs = [str(o) for o in (out if isinstance(out, list) else [out])] if out else []
+    return f"{what} while writing {', '.join(outs)}" if outs else what
 
 
 def entry() -> None:

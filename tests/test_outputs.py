@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from clbrdf import tables
+from cliutil import run_inprocess
 
 TABLE = ["table", "ggx", "--axis", "mu=0.1:1:4", "--axis", "alpha=0.1:1:3"]
 
@@ -109,3 +110,32 @@ def test_stale_temporary_files_are_removed(tmp_path):
     names = sorted(p.name for p in tmp_path.iterdir())
     assert stale.name not in names and live.name in names
     assert "x.npz" in names and "x.png" in names
+
+
+@pytest.fixture
+def full_disk(tmp_path):
+    """A 16 kB tmpfs (root only; skipped where mounting is not allowed)."""
+    d = tmp_path / "full"
+    d.mkdir()
+    r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=16k", "tmpfs", str(d)],
+                       capture_output=True)
+    if r.returncode != 0:
+        pytest.skip(f"cannot mount a small tmpfs here: {r.stderr.decode().strip()}")
+    yield d
+    subprocess.run(["umount", str(d)], capture_output=True)
+
+
+def test_full_disk_names_the_output(full_disk):
+    """A table or sweep onto a full disk printed the raw "[Errno 28] No space left on device"
+    without the path; the error now says what it was writing (exit 1), and nothing half-written
+    is left in the output's place."""
+    out = full_disk / "t.npz"
+    r = run_inprocess("table", "ggx", "--axis", "mu=0.1:1:64", "--axis", "alpha=0.1:1:64",
+                      "-n", "64", "--out", out)
+    assert r.returncode == 1, r.stderr
+    assert "No space left on device" in r.stderr and str(out) in r.stderr, r.stderr
+    assert "Errno" not in r.stderr and not out.exists()
+    s = full_disk / "s.zarr"
+    r = run_inprocess("sweep", "ggx", "--axis", "alpha=0.01:1:2000", "-n", "64", "--out", s, "-q")
+    assert r.returncode == 1 and "No space left on device" in r.stderr and str(s) in r.stderr, \
+        r.stderr
