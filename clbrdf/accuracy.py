@@ -131,14 +131,22 @@ def best(rows: list[dict], target: float) -> list[tuple[str, float, bool]]:
 
 
 def plot(rows: list[dict], fileobj, name: str):
-    """Log-log chart (PNG to ``fileobj``): max and RMS error against samples per point and
-    against wall time."""
+    """The chart (``figure``) as PNG to ``fileobj``."""
+    figure(rows, name).savefig(fileobj, dpi=90, format="png")
+
+
+def figure(rows: list[dict], name: str):
+    """Log-log chart: max and RMS error against samples per point and against wall time, a row
+    of panels per precision measured (one row for --precision single or double)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
-    fig = Figure(figsize=(13, 9))
-    axes = fig.subplots(2, 2)
+    precs = [p for p in ("single", "double") if any(r["precision"] == p for r in rows)]
+    fig = Figure(figsize=(13, 4.5 * len(precs)))
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(len(precs), 2, squeeze=False)
     colors = {"uniform": "tab:gray", "cosine": "tab:olive", "brdf": "tab:blue", "mis": "tab:green",
               "quadrature": "tab:red"}
-    for j, prec in enumerate(("single", "double")):
+    for j, prec in enumerate(precs):
         for est, qmc in ESTIMATORS + [("quadrature", False)]:
             rng = "sobol" if qmc else ("none" if est == "quadrature" else "philox")
             sel = [r for r in rows if r["precision"] == prec and r["estimator"] == est
@@ -164,7 +172,7 @@ def plot(rows: list[dict], fileobj, name: str):
     fig.suptitle(f"{name}: error of E against cost ({len(MUS)} mu x {len(cases(name))} "
                  f"parameter sets, float64 reference)")
     fig.tight_layout()
-    fig.savefig(fileobj, dpi=90, format="png")
+    return fig
 
 
 def summary(all_rows: list[dict], command: str, seconds: float) -> str:

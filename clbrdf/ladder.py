@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import io
 import json
+import math
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -377,31 +378,88 @@ def ladder(name: str, kw: dict, device=None) -> list[dict]:
     return list(rows.values())
 
 
-def plot(rows, fileobj, name, kw):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, axes = plt.subplots(1, 2, figsize=(12, 5.2))
+def pareto(rows, err: str, rate: str) -> list:
+    """The rows no other row beats on both speed (``rate``, higher) and error (lower)."""
+    out, best = [], math.inf
+    for r in sorted(rows, key=lambda r: (-r[rate], r[err])):
+        if r[err] < best:
+            out.append(r)
+            best = r[err]
+    return out
+
+
+def _callouts(ax, points, labels, fontsize=6):
+    """Labels in a column right of the axes, each at its point's height where there is room,
+    at least a line apart, joined to its point by a thin line. Heights are in axes fractions;
+    the labels shrink the axes (constrained layout), so they are placed again once drawn."""
+    if not points:
+        return
+    fig = ax.figure
+    to_axes = ax.transAxes.inverted()
+    notes = []
+    for _ in range(3):
+        fig.canvas.draw()                       # the layout, with the labels placed so far
+        h = 1.8 * fontsize / 72 * fig.dpi / ax.get_window_extent().height
+        ys = np.array([to_axes.transform(ax.transData.transform(p))[1] for p in points])
+        h = min(h, 1.0 / len(ys))
+        order = np.argsort(ys)
+        y = np.clip(ys[order], h / 2, 1 - h / 2)
+        for k in range(1, len(y)):              # bottom up: at least h apart
+            y[k] = max(y[k], y[k - 1] + h)
+        y[-1] = min(y[-1], 1 - h / 2)
+        for k in range(len(y) - 2, -1, -1):     # top down: back under the top
+            y[k] = min(y[k], y[k + 1] - h)
+        placed = np.empty(len(ys))
+        placed[order] = y
+        if not notes:
+            notes = [ax.annotate(lab, p, xytext=(1.03, yy), textcoords="axes fraction",
+                                 fontsize=fontsize, va="center", annotation_clip=False,
+                                 arrowprops=dict(arrowstyle="-", lw=0.4, alpha=0.5, shrinkA=0,
+                                                 shrinkB=2))
+                     for p, lab, yy in zip(points, labels, placed)]
+        else:
+            for a, yy in zip(notes, placed):
+                a.xyann = (1.03, yy)
+
+
+def figure(rows, name, kw):
+    """The ladder's chart: cost against error of every variant; the variants that no other
+    beats on both (the Pareto front) are labelled, the others are in ladder.csv."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    fig = Figure(figsize=(14, 5.6), dpi=100, layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(1, 2)
     for ax, err, rate, what in ((axes[0], "value_error", "evals_per_s", "evaluations / s"),
                                 (axes[1], "albedo_error", "samples_per_s", "albedo samples / s")):
         for r in rows:
-            e = max(r[err], 1e-17)
-            ax.scatter(r[rate], e, c="C0" if r["precision"] == "double" else "C1", s=18)
-            ax.annotate(r["label"], (r[rate], e), fontsize=5, alpha=0.8,
-                        xytext=(3, 2), textcoords="offset points")
+            ax.scatter(r[rate], max(r[err], 1e-17),
+                       c="C0" if r["precision"] == "double" else "C1", s=18)
+        front = pareto(rows, err, rate)
         ax.set_xscale("log")
         ax.set_yscale("log")
+        ax.xaxis.set_minor_formatter(_no_labels())
         ax.set_xlabel(what)
         ax.set_ylabel("max relative error against the full model in double"
                       if err == "value_error" else "max relative error of E")
         ax.grid(True, which="both", alpha=0.3)
+        _callouts(ax, [(r[rate], max(r[err], 1e-17)) for r in front],
+                  [r["label"] for r in front])
     axes[0].set_title("f over direction pairs (blue double, orange single)", fontsize=9)
     axes[1].set_title("E(mu) over mu 0.02..1", fontsize=9)
-    fig.suptitle(f"{name} {json.dumps(_plain(kw))}: cost against error of each variant",
-                 fontsize=9)
-    fig.tight_layout()
-    fig.savefig(fileobj, format="png", dpi=100)
-    plt.close(fig)
+    fig.suptitle(f"{name} {json.dumps(_plain(kw))}: cost against error of each variant "
+                 f"(labelled: those no other is both faster and more accurate than; all in "
+                 f"ladder.csv)", fontsize=9)
+    return fig
+
+
+def _no_labels():
+    from matplotlib.ticker import NullFormatter
+    return NullFormatter()
+
+
+def plot(rows, fileobj, name, kw):
+    figure(rows, name, kw).savefig(fileobj, format="png", bbox_inches="tight")
 
 
 def chart(models=None, out="ladder", *, device=None, command="clbrdf.ladder.chart()",

@@ -330,20 +330,27 @@ def _fmt(v):
 
 
 def plot(rows: list[dict], fileobj, name: str):
+    """Heat maps of one model (``figure``) as PNG to ``fileobj``."""
+    figure(rows, name).savefig(fileobj, format="png", dpi=90)
+
+
+def figure(rows: list[dict], name: str):
     """Heat maps of one model: per sweep and precision a row of panels, one per estimator and
     sampler; colour log10 relative efficiency, letters the failures (N non-finite, B biased,
     P precision loss in single), grey the cells the precision does not accept."""
+    import textwrap
     import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.colors import Normalize
+    from matplotlib.figure import Figure
     combos = list(dict.fromkeys((r["estimator"], r["sampler"]) for r in rows))
     panels = list(dict.fromkeys((r["sweep"], r["precision"]) for r in rows))
-    fig, axes = plt.subplots(len(panels), len(combos), figsize=(2.3 * len(combos) + 1,
-                                                                2.4 * len(panels) + 0.6),
-                             squeeze=False, sharey=True, layout="constrained")
+    width = 2.3 * len(combos) + 1
+    fig = Figure(figsize=(width, 2.4 * len(panels) + 0.9), dpi=90, layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(len(panels), len(combos), squeeze=False, sharey=True)
     norm = Normalize(-6, 0)
-    cmap = plt.get_cmap("viridis").with_extremes(bad="0.85")
+    cmap = matplotlib.colormaps["viridis"].with_extremes(bad="0.85")
     idx = {}
     for r in rows:
         idx[(r["sweep"], r["precision"], r["estimator"], r["sampler"], r["value"], r["mu"])] = r
@@ -376,13 +383,15 @@ def plot(rows: list[dict], fileobj, name: str):
             if ci == 0:
                 ax.set_ylabel(f"{prec}\nmu", fontsize=7)
             ax.set_xlabel(sweep, fontsize=7)
-    fig.suptitle(f"{name}: log10 efficiency relative to the best estimator (N non-finite, "
-                 f"B biased > {Z_BIAS:g} se, red where the estimator is not useless; "
-                 "P precision lost in single; grey: mu not accepted; quadrature: dark where "
-                 "it stopped short of its tolerance)", fontsize=9)
+    title = (f"{name}: log10 efficiency relative to the best estimator (N non-finite, "
+             f"B biased > {Z_BIAS:g} se, red where the estimator is not useless; "
+             "P precision lost in single; grey: mu not accepted; quadrature: dark where "
+             "it stopped short of its tolerance)")
+    # wrapped to the figure's width (a 9 pt character is about 0.07 in): a narrow figure cut
+    # the one-line title off
+    fig.suptitle(textwrap.fill(title, max(40, int(width / 0.075))), fontsize=9)
     fig.colorbar(im, ax=axes, shrink=0.6, label="log10 relative efficiency")
-    fig.savefig(fileobj, format="png", dpi=90)
-    plt.close(fig)
+    return fig
 
 
 def _counts(rows) -> dict:

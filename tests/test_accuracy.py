@@ -47,3 +47,22 @@ def test_best_picks_the_fastest_and_extrapolates_monte_carlo():
     k, s, x = b[1]
     assert k == "brdf philox" and x and np.isclose(s, 4.0 * (5e-4 / 1e-4) ** 2)
     assert accuracy.best(rows, 1e-3)[0] == ("quadrature", 0.5, False)
+
+
+def test_single_precision_chart_has_no_empty_panels():
+    """`clbrdf accuracy --precision single` drew two empty double-precision panels; the chart
+    has a row per precision measured. From the shipped measurements: every panel has data."""
+    import csv
+    from pathlib import Path
+    from clbrdf import accuracy as A
+    rows = []
+    with open(Path(__file__).parent.parent / "docs/accuracy/accuracy.csv", newline="") as f:
+        for r in csv.DictReader(f):
+            for k in ("samples", "seconds", "rms", "max"):
+                r[k] = float(r[k])
+            rows.append(r)
+    ggx = [r for r in rows if r["model"] == "ggx"]
+    for precs, panels in ((("single",), 2), (("double",), 2), (("single", "double"), 4)):
+        fig = A.figure([r for r in ggx if r["precision"] in precs], "ggx")
+        assert len(fig.axes) == panels
+        assert all(ax.lines for ax in fig.axes), precs

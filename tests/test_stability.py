@@ -220,3 +220,17 @@ def test_map_reproduces_with_another_seed(name, monkeypatch):
                if r["model"] == name}
     same = np.mean([shipped[S._key(r) + (r["precision"],)] == r["useless"] for r in rows])
     assert same >= 0.9, same
+
+
+def test_stability_chart_title_fits_every_model():
+    """The stability chart's one-line title ran off narrow figures; it is wrapped to the
+    figure's width. Rendered from the shipped map, every model: no text cut off."""
+    from pathlib import Path
+    from figures import text_boxes
+    rows = S._read_csv(Path(__file__).parent.parent / "docs/stability/stability.csv")
+    for name in dict.fromkeys(r["model"] for r in rows):
+        fig = S.figure([r for r in rows if r["model"] == name], name)
+        W, H = fig.bbox.width, fig.bbox.height
+        cut = [t for t, b in text_boxes(fig)
+               if b.x0 < -0.5 or b.y0 < -0.5 or b.x1 > W + 0.5 or b.y1 > H + 0.5]
+        assert not cut, (name, cut[:3])
