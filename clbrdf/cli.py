@@ -184,7 +184,9 @@ def cmd_devices(args) -> int:
     rows, kernel_notes = [], []
     for d in devs:
         err = compiler_error((d.platform_index, d.device_index))
-        kern, note = _kernel_state(d, args.probe) if err is None else ("-", None)
+        # --probe checks the devices --device selects (all without it)
+        run = args.probe and (not args.device or d.selector == chosen)
+        kern, note = _kernel_state(d, run) if err is None else ("-", None)
         rows.append((d.selector, "GPU" if d.is_gpu else "CPU", "yes" if d.has_fp64 else "no",
                      "ok" if err is None else "FAILS", kern, d.compute_units,
                      f"{d.name} [{d.platform}]" + ("  <- default" if d.selector == chosen else ""),
@@ -928,9 +930,9 @@ def build_parser() -> argparse.ArgumentParser:
                                    "and which one clbrdf uses by default.")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.add_argument("--probe", action="store_true",
-                   help="check now that each device builds and runs the kernels (a child process "
-                        "per device and width; otherwise untested devices are checked on first "
-                        "use and the result is cached)")
+                   help="check now that each device (with --device: that one) builds and runs "
+                        "the kernels (a child process per device and width; otherwise untested "
+                        "devices are checked on first use and the result is cached)")
     p.set_defaults(func=cmd_devices)
 
     p = sub.add_parser("models", parents=[dev], help="list models, parameters and options",

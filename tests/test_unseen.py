@@ -9,6 +9,7 @@ alpha 1e-4 .. 0.1 and mu 1e-3 .. 1, for every Monte Carlo estimator with both ge
 quadrature written independently of the kernels).
 """
 import functools
+import json
 import warnings
 
 import numpy as np
@@ -99,7 +100,7 @@ def test_allowance_shrinks_as_one_over_n():
 def test_albedo_avg_covers_the_true_average():
     """E_avg of near-mirror GGX: the nodes may all miss the same rare events; their allowances
     add up (not in quadrature)."""
-    alphas = np.array([1e-4, 1e-3, 0.00416, 0.03])
+    alphas = np.array([1e-4, 0.00416])
     ref = []
     x, w = np.polynomial.legendre.leggauss(32)
     mu = (x + 1) / 2
@@ -143,8 +144,9 @@ def test_sweep_verdicts_near_mirror_ggx_with_kd(tmp_path):
     """`sweep ggx -p kd=1e-5 --axis alpha=.002,.004,.008,.016` called all 4 points gains, 3
     wrongly (the true max over the 32 directions of E + kd is below 1 for alpha >= 0.004); and
     the worst case of the issue, alpha 0.0301 with kd = 1e-4 (E(mu 0.925) = 0.99907 reported as
-    1.0000426 +- 8.4e-6)."""
-    alphas = [0.002, 0.004, 0.008, 0.016, 0.0301]
+    1.0000426 +- 8.4e-6). Three of those roughnesses here; the issue's whole grid is the slow
+    test below."""
+    alphas = [0.002, 0.008, 0.0301]
     for qmc in (False, True):
         s = clbrdf.sweep("ggx", tmp_path / f"s{qmc}.zarr", axes={"alpha": alphas},
                          kd=1e-4, qmc=qmc, samples=4096)
@@ -159,3 +161,53 @@ def test_sweep_verdicts_near_mirror_ggx_with_kd(tmp_path):
         S = np.asarray(s.root["E_stderr"][:], np.float64)
         ref = np.array([[e_ref(a, float(m)) + 1e-4 for m in mus] for a in alphas])
         assert_covered(z_scores(E, S, ref), f"sweep qmc={qmc}")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("qmc", [False, True], ids=["philox", "sobol"])
+def test_sweep_false_verdicts_on_the_issue_grid_slow(tmp_path, qmc):
+    """`clbrdf sweep ggx --axis alpha=0.002:0.05:20:log --axis kd=0:0.002:21` called 15 of 420
+    points (11 with --qmc) gains that conserve, where the stated error rate (1e-3 per point)
+    allows about 0.4. Against the float64 reference at every direction of the sweep: no wrong
+    verdict (the truth: max over the 32 directions of E_ggx + kd above 1 or not)."""
+    s = clbrdf.sweep("ggx", tmp_path / "s.zarr", axes={"alpha": (0.002, 0.05, 20, "log"),
+                                                         "kd": (0, 0.002, 21)}, qmc=qmc)
+    mus = np.asarray(s.root["directions/mu"][:])
+    alpha = np.asarray(s.root["params/alpha"][:])
+    kd = np.asarray(s.root["params/kd"][:])
+    verdict = np.asarray(s.root["verdict"][:])
+    emax = {a: max(e_ref(float(a), float(m)) for m in mus) for a in np.unique(alpha)}
+    want = np.array([2 if emax[a] + k > 1 else 1 for a, k in zip(alpha, kd)])
+    wrong = (verdict != 0) & (verdict != want)
+    assert not wrong.any(), list(zip(alpha[wrong], kd[wrong], verdict[wrong]))
+    assert (verdict != 0).mean() > 0.8          # and the rule still decides most points
+
+
+@pytest.mark.parametrize("layout, table, rows", [("ospray", "MicrofacetAlbedoTable_dir", 3),
+                                                  ("ue5", "ggx_spec_energy", 2)])
+def test_layout_cells_cover_the_true_error(layout, table, rows):
+    """`clbrdf table --layout ospray`: 86 cells of its first three roughness rows were more than
+    5 sigma off (alpha 0.00416, mu 1: 1.0000000 +- 4.3e-10 for 0.9999826); ue5's
+    E(1/64, 1/64) 54 sigma. The layout's first rows at its published sample count and the
+    default estimator (brdf, Sobol points), against the float64 reference, every cell (channel E
+    of ue5's table; the table's roughness axis is r, alpha = r^2, evaluated at min= where
+    given)."""
+    from clbrdf.axes import check_form, evaluated, parse_axis
+    from clbrdf.layouts import get_layout, layout_table
+    lay = get_layout(layout)
+    tab = json.loads(json.dumps([t for t in lay["tables"] if t["name"] == table][0]))
+    axis = lambda p: check_form(parse_axis([a for a in tab["axes"] if a.startswith(p)][0]))
+    alphas = evaluated(axis("r="))[:rows]              # alpha = max(r, min)^2 of the first rows
+    mus = evaluated(axis("mu="))
+    tab["axes"] = [("r=" + ",".join(repr(float(np.sqrt(v))) for v in alphas))
+                   if a.startswith("r=") else a for a in tab["axes"]]
+    t = layout_table(lay, tab, samples=lay["samples"], estimator="brdf", qmc=True,
+                     check_interpolation=False)
+    names = t.axis_names
+    q = t.quantity.index("E")
+    vals = t.values if len(t.quantity) == 1 else t.values[..., q]
+    errs = t.stderr if len(t.quantity) == 1 else t.stderr[..., q]
+    ref = ref_grid(tuple(float(v) for v in alphas), tuple(float(m) for m in mus))
+    if names[0] == "mu":
+        ref = ref.T
+    assert_covered(z_scores(vals, errs, ref), f"{layout} {table}")
