@@ -197,7 +197,7 @@ class ClbrdfRow(Row):
     def run(self):
         r = self.clbrdf.albedo(self.model, self.mus, estimator=self.estimator, samples=self.samples,
                                seed=self.seed, qmc=self.qmc)
-        return r.albedo, r.stderr
+        return r.albedo, r.sampling_stderr     # the spread, comparable with the other rows
 
 
 class QuadratureRow(ClbrdfRow):
