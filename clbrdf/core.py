@@ -361,6 +361,7 @@ EPS = {"single": 2.0 ** -24, "double": 2.0 ** -53}
 def rounding_floor(precision: str, e):
     return ROUND_ULPS * EPS[precision] * np.maximum(np.abs(e), 1.0)
 
+
 def reported_error(sampling, unseen_part, floor):
     """The error a Monte Carlo result reports: the sampling error, the unseen-event allowance
     and the rounding floor in quadrature (docs/accuracy/unseen.md)."""
@@ -368,10 +369,11 @@ def reported_error(sampling, unseen_part, floor):
 
 
 def unseen(scale, n, alpha: float = UNSEEN_ALPHA):
-    """The allowance for events that n samples did not draw: a region of the sampler's domain of
-    probability p is missed by all n samples with probability (1 - p)^n < exp(-p n), so with
-    probability at least 1 - alpha every region that was missed has p < ln(1 / alpha) / n, and
-    it changes E by at most p W, W (``weight_scale``) bounding |weight - E| there."""
+    """The allowance for events that n samples did not draw: a region of the sampler's domain
+    fixed by the integrand (the numbers that map below the horizon, or onto a sharp lobe), of
+    probability p, is missed by all n samples with probability (1 - p)^n < exp(-p n). So either
+    p < ln(1 / alpha) / n, and the region changes E by at most p W, W (``weight_scale``)
+    bounding |weight - E| there, or the run draws it but with probability alpha."""
     return math.log(1 / alpha) * np.asarray(scale, dtype=np.float64) / np.asarray(n, np.float64)
 
 
@@ -381,11 +383,11 @@ def weight_scale(m: Model, shape, wo_rows, estimator: str, est=None, qmc: bool =
     model's sampler at a grid of numbers that includes the edges of its domain (its lobe's peak
     and far tail), where the weight is the estimator's own (uniform 2 pi f cos, cosine pi f, brdf
     f cos / pdf, mis twice that: each of its two balance terms is at most f cos / pdf;
-    kernels/integrators.cl, albedo_probe), and
-    |E|. Weights are >= 0, so this bounds |weight - E| where a missed event has weight 0 as well
-    as where it has a large one. W = 0 where every probe gives the same weight to within the
-    rounding floor (``rounding_floor``, already in the reported error): the
-    estimator is exact there (Lambert with cosine or brdf sampling)."""
+    kernels/integrators.cl, albedo_probe), and |E|. Weights are >= 0, so this bounds
+    |weight - E| where a missed event has weight 0 as well as where it has a large one. W = 0
+    where every probe gives the same weight to within the rounding floor (``rounding_floor``,
+    already in the reported error): the estimator is exact there (Lambert with cosine or brdf
+    sampling)."""
     hi, lo = runtime.run_probe(m, shape, wo_rows, estimator=estimator, qmc=qmc)
     if est is not None:
         hi = np.maximum(hi, np.abs(np.asarray(est, np.float64).reshape(hi.shape)))
