@@ -311,7 +311,9 @@ def run_probe(m, shape, wo_rows, *, estimator: str, qmc: bool):
         bw = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=WO)
         out = np.empty(k * nch * 2 * W, dtype=m.dtype)
         bo = cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes)
-        kern(q, *ndrange(k, m.device), bp, prog.tables, bw, np.uint64(k), bo)
+        # one local size on a CPU (PoCL compiles a kernel per local size): 1
+        geo = ndrange(k, m.device) if m.device.info.is_gpu else ndrange_with(k, (1,))
+        kern(q, *geo, bp, prog.tables, bw, np.uint64(k), bo)
         cl.enqueue_copy(q, out, bo)
         q.finish()
         out = out.reshape(k, nch, 2, W).astype(np.float64)

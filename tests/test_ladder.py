@@ -168,8 +168,8 @@ def test_ladder_chart_labels_do_not_overprint():
     for r in rows:
         for k in ("value_error", "albedo_error", "evals_per_s", "samples_per_s"):
             r[k] = float(r[k])
-    for name in ("ggx", "gtr", "schlick"):         # the most variants, the smallest errors, a
-        mine = [r for r in rows if r["model"] == name]      # model of its own
+    for name in ("ggx", "schlick"):             # the most variants; a model of its own
+        mine = [r for r in rows if r["model"] == name]
         assert mine, name
         fig = L.figure(mine, name, L.LADDER_CONFIGS.get(name, {}))
         assert_texts_readable(fig)

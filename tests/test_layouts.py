@@ -783,8 +783,10 @@ def test_load_of_garbage_empty_or_truncated_files_is_a_clear_error(content, warp
         Table.load(tmp_path / "missing.npz")
 
 
-@pytest.mark.parametrize("name", ["ue5", "threejs", "materialx", "filament", "enterprise-pbr",
-                                  "openpbr", "ospray"])
+@pytest.mark.parametrize("name", ["ue5", "threejs", "materialx", "filament",
+                                  pytest.param("enterprise-pbr", marks=pytest.mark.slow),
+                                  pytest.param("openpbr", marks=pytest.mark.slow),
+                                  pytest.param("ospray", marks=pytest.mark.slow)])
 def test_white_furnace_takes_every_layout_with_an_e(name):
     """The furnace worked on 4 of 8 layouts (ue5: a numpy broadcast error); it reads E from a
     channel E or 1 - E, or A + B (three.js, MaterialX), over r or alpha (MaterialX). After
