@@ -289,7 +289,7 @@ def run_albedo(m, shape, wo_rows, *, estimator: str, samples: int, seed: int, qm
 def run_probe(m, shape, wo_rows, *, estimator: str, qmc: bool):
     """The largest and smallest weight of the estimator over its probes (albedo_probe in
     kernels/integrators.cl) at every point of ``shape``: two arrays (points, channels). Runs in
-    the albedo program of the same estimator and generator (no other compilation), in launches
+    the albedo program of the same estimator and generator (no other program), in launches
     of at most LAUNCH_POINTS points."""
     import pyopencl as cl
     npts = math.prod(shape)
