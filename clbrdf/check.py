@@ -30,7 +30,7 @@ import numpy as np
 from scipy import stats as sps
 
 from . import stats as S
-from .core import EPS, ROUND_ULPS, Model, albedo, rounding_floor, unseen
+from .core import EPS, Model, albedo, rounding_floor, unseen
 from .spec import MU_MIN
 
 ALPHA = 1e-3              # family-wise significance of the statistical checks

@@ -157,7 +157,8 @@ def _kernel_state(info, run: bool):
     precision: ok W<width>, "width 1 only", FAILS, or untested (clbrdf.probe's cache; ``run``
     checks the untested)."""
     from . import probe
-    w = 1 if info.is_gpu else 16
+    from .device import natural_width
+    w = natural_width(info, "single")
     look = probe.kernel_error if run else probe.cached
     err = look(info, w, "single")
     if err is ...:

@@ -124,7 +124,7 @@ def _pick(selector: str | None):
         from .spec import ParameterError
         valid = ", ".join(f"{i.selector} ({i.name})" for i, _ in devs)
         raise ParameterError(f"device={selector!r} is empty: give P:D or a part of a device's or "
-                          f"platform's name; valid: {valid}")
+                             f"platform's name; valid: {valid}")
     if selector is None:
         selector = os.environ.get("CLBRDF_DEVICE") or None
     if selector is None:
@@ -157,6 +157,14 @@ def _pick(selector: str | None):
     raise DeviceError(f"device={selector!r} matches no OpenCL device; valid: {valid}")
 
 
+def natural_width(info: DeviceInfo, precision: str) -> int:
+    """The lanes per work-item a device gets unless told otherwise: 1 on a GPU; on a CPU a
+    512-bit register (16 floats, 8 doubles), since PoCL does not vectorise scalar code."""
+    if info.is_gpu:
+        return 1
+    return 16 if precision == "single" else 8
+
+
 class Device:
     """A device with its context and in-order queue."""
 
@@ -175,10 +183,7 @@ class Device:
                 raise ParameterError(f"environment variable CLBRDF_WIDTH={env!r} is not valid: "
                                      f"choose one of 1, 2, 4, 8, 16 (lanes per work-item)")
             return int(env)
-        if self.info.is_gpu:
-            return 1
-        # CPU: fill a 512-bit register (16 floats, 8 doubles); PoCL does not vectorise scalar code
-        return 16 if precision == "single" else 8
+        return natural_width(self.info, precision)
 
     def __repr__(self):
         return f"Device({self.info.selector}: {self.info.name} [{self.info.platform}])"

@@ -324,42 +324,44 @@ def make_layout(name: str, *, samples=None, estimator=None, progress=False, comm
     return out
 
 
-def _channel_reader(t, names: tuple):
-    """read(**coords) -> the quantity names[0] (or its complement 1 - Q) of table t, from its
-    channel of that name, or from A + B for E (the split tables of three.js and MaterialX);
-    None if t holds neither."""
+def _channel(t, label: str, coords: dict):
+    """Quantity ``label`` of table t at coords, from its channel ``label`` or ``1-label``; None
+    if t has neither."""
     q = list(t.quantity)
+    for name, sign in ((label, 1), ("1-" + label, -1)):
+        if name in q:
+            v = np.asarray(t.lookup(**coords))
+            v = v if len(q) == 1 else v[..., q.index(name)]
+            return v if sign > 0 else 1 - v
+    return None
 
-    def one(label):
-        for flip in (False, True):
-            want = ("1-" if flip else "") + label
-            if want in q:
-                c = q.index(want)
-                return lambda **k: (lambda v: 1 - v if flip else v)(
-                    np.asarray(t.lookup(**k)) if len(q) == 1 else np.asarray(t.lookup(**k))[..., c])
-        return None
-    read = one(names[0])
-    if read is None and names[0] == "E":
-        a, b = one("A"), one("B")
-        if a is not None and b is not None:
-            return lambda **k: a(**k) + b(**k)
-    return read
+
+def _reads(t, label: str) -> bool:
+    """Whether ``_read(t, label, ...)`` finds the quantity."""
+    q = set(t.quantity)
+    return bool({label, "1-" + label} & q) or (label == "E" and {"A", "B"} <= q)
+
+
+def _read(t, label: str, **coords):
+    """Quantity ``label`` (E or E_avg) of table t: its channel, or A + B for E (the split
+    tables of three.js and MaterialX)."""
+    v = _channel(t, label, coords)
+    return v if v is not None else _channel(t, "A", coords) + _channel(t, "B", coords)
 
 
 def _find(tables: dict, directional: bool):
-    """(table, read(mu, r)) of E over (mu, r) -- or over (mu, alpha), alpha = r^2 -- or of E_avg
-    over r (alpha): a channel E or 1 - E, or A + B; r axes first. None if there is none."""
+    """(table, read(r=..., [mu=...])) of E over (mu, r) -- or over (mu, alpha), alpha = r^2 --
+    or of E_avg over r (alpha): a channel E or 1 - E, or A + B; r axes first. (None, None) if
+    there is none."""
+    label = "E" if directional else "E_avg"
     for roughness in ("r", "alpha"):
         for t in tables.values():
-            names = set(t.axis_names)
-            if names != ({"mu", roughness} if directional else {roughness}):
-                continue
-            read = _channel_reader(t, ("E",) if directional else ("E_avg",))
-            if read is None:
-                continue
-            if roughness == "alpha":
-                return t, (lambda read: lambda r, **k: read(alpha=np.square(r), **k))(read)
-            return t, read
+            if set(t.axis_names) == ({"mu", roughness} if directional else {roughness}) and \
+                    _reads(t, label):
+                def read(r, t=t, roughness=roughness, **coords):
+                    return _read(t, label, **{roughness: r if roughness == "r" else
+                                              np.square(r)}, **coords)
+                return t, read
     return None, None
 
 

@@ -23,6 +23,7 @@ LAUNCH_SAMPLES = 1 << 30  # samples per kernel launch, at most (at least one blo
 FIRST_LAUNCH = 1 << 20    # samples in the first launch; later ones are sized from its speed
 LAUNCH_SECONDS = 0.25     # target duration of one launch
 LOCAL_SIZE = 64           # work-items per work-group, at most
+LAUNCH_POINTS = 1 << 18   # points per probe launch (run_probe), at most
 
 _KERNELS: dict = {}
 
@@ -209,6 +210,18 @@ class _Reducer:
         return means[:, 0], np.sqrt(var / n)
 
 
+def _point_buffers(ctx, params_full, wo_full, a: int, k: int):
+    """Device copies of the parameter and wo blocks of points a .. a + k (a model without
+    parameters gets a placeholder buffer)."""
+    import pyopencl as cl
+    mf = cl.mem_flags
+    P = np.ascontiguousarray(params_full[:, a:a + k])
+    WO = np.ascontiguousarray(wo_full[:, a:a + k])
+    bp = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=P) if P.size else \
+        cl.Buffer(ctx, mf.READ_ONLY, 8)
+    return bp, cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=WO)
+
+
 def run_albedo(m, shape, wo_rows, *, estimator: str, samples: int, seed: int, qmc: bool,
                progress: bool, point0: int = 0):
     """E and its standard error at every point of ``shape`` (model parameters broadcast with the
@@ -247,11 +260,7 @@ def run_albedo(m, shape, wo_rows, *, estimator: str, samples: int, seed: int, qm
         else:                                                # part of one point's group
             k = 1
             nb = min(budget_blocks, plan.bps - block % plan.bps)
-        P = np.ascontiguousarray(params_full[:, point:point + k])
-        WO = np.ascontiguousarray(wo_full[:, point:point + k])
-        bp = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=P) if P.size else \
-            cl.Buffer(ctx, mf.READ_ONLY, 8)
-        bw = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=WO)
+        bp, bw = _point_buffers(ctx, params_full, wo_full, point, k)
         out = np.empty(k * nb * nch * 3 * L, dtype=m.dtype)
         bo = cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes)
         tl = time.perf_counter()
@@ -304,11 +313,7 @@ def run_probe(m, shape, wo_rows, *, estimator: str, qmc: bool):
     wo_full = m._soa(shape, wo_rows, npts)
     for a in range(0, npts, LAUNCH_POINTS):
         k = min(npts - a, LAUNCH_POINTS)
-        P = np.ascontiguousarray(params_full[:, a:a + k])
-        WO = np.ascontiguousarray(wo_full[:, a:a + k])
-        bp = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=P) if P.size else \
-            cl.Buffer(ctx, mf.READ_ONLY, 8)
-        bw = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=WO)
+        bp, bw = _point_buffers(ctx, params_full, wo_full, a, k)
         out = np.empty(k * nch * 2 * W, dtype=m.dtype)
         bo = cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes)
         # one local size on a CPU (PoCL compiles a kernel per local size): 1
@@ -321,8 +326,6 @@ def run_probe(m, shape, wo_rows, *, estimator: str, qmc: bool):
         lo[a:a + k] = out[:, :, 1].min(axis=-1)
     return hi, lo
 
-
-LAUNCH_POINTS = 1 << 18       # points per probe launch, at most
 
 
 # ---------------------------------------------------------------------------------------------

@@ -333,7 +333,7 @@ def z_value(job: dict) -> float:
 
 
 def rounding(job: dict, E):
-    """The rounding allowance added to z s: ROUND_ULPS ulps of max(|E|, 1) (clbrdf.check), a bias
+    """The rounding allowance added to z s: ROUND_ULPS ulps of max(|E|, 1) (core.rounding_floor), a bias
     of the weights in the working precision that no sample count averages out (GGX with kd = 1,
     ks = 0: E = 1 - 7.5e-9 +- 7.7e-11 in single)."""
     from .core import rounding_floor
