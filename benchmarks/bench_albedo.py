@@ -468,7 +468,7 @@ def other_devices(args) -> list:
     """Selectors of the --other-device rows: as given, or every other device whose compiler works."""
     if args.other_device is not None:
         return [d for d in args.other_device if d != "none"]
-    from clbrdf.device import compiler_error, get_device, list_devices
+    from clbrdf.runtime.device import compiler_error, get_device, list_devices
     main = get_device(args.device).info.selector
     return [d.selector for d in list_devices() if d.selector != main
             and compiler_error((d.platform_index, d.device_index)) is None]

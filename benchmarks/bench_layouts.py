@@ -45,8 +45,8 @@ def main():
     ap.add_argument("--only", nargs="*")
     a = ap.parse_args()
     import clbrdf
-    from clbrdf.axes import parse_axis
-    from clbrdf.layouts import layout_table, layouts, make_layout
+    from clbrdf.tables.axes import parse_axis
+    from clbrdf.tables.layouts import layout_table, layouts, make_layout
     warnings.simplefilter("ignore")
     rows = []
     for name, lay in layouts().items():

@@ -52,7 +52,7 @@ from results import timed  # noqa: E402
 
 def overhead(tmp, rounds, points, samples):
     import clbrdf
-    from clbrdf.sweep import sweep
+    from clbrdf.studies.sweep import sweep
     axes = {"alpha": (0.02, 1, points, "log")}
     alpha = np.geomspace(0.02, 1, points)
     mu = np.asarray(__import__("clbrdf.sweep", fromlist=["x"]).gauss_directions(32)["mu"])
@@ -77,7 +77,7 @@ def overhead(tmp, rounds, points, samples):
 
 
 def million(tmp):
-    from clbrdf.sweep import sweep
+    from clbrdf.studies.sweep import sweep
     p = tmp / "million.zarr"
     shutil.rmtree(p, ignore_errors=True)
     w, c, s = timed(lambda: sweep("ggx", p, axes={"alpha": (1e-3, 1, 1000, "log"),
@@ -111,8 +111,8 @@ def peak_memory(tmp, n):
 
 
 def cluster_vs_local(tmp, rounds):
-    from clbrdf.cluster import local_cluster
-    from clbrdf.sweep import sweep
+    from clbrdf.studies.cluster import local_cluster
+    from clbrdf.studies.sweep import sweep
     from distributed import Client
     kw = dict(axes={"alpha": (0.01, 1, 64, "log"), "f0": (0, 1, 16)}, samples=4096,
               max_samples=4096, chunk=64)

@@ -1,13 +1,34 @@
-"""clbrdf: BRDF evaluation, sampling and integration in bulk with OpenCL kernels."""
-__version__ = "0.1.0"
+"""clbrdf: BRDF evaluation, sampling and integration in bulk with OpenCL kernels.
 
-from .core import (AlbedoResult, Model, TargetStderrWarning, albedo, albedo_avg,  # noqa: F401
-                   albedo_table, fresnel_avg, model)
-from .device import DeviceError, get_device, list_devices  # noqa: F401
-from .models import MODELS  # noqa: F401
-from . import presets  # noqa: F401
-from .spec import ParameterError  # noqa: F401
-from .check import check  # noqa: F401,E402  (clbrdf.check(model, ...): the property battery)
-from .sweep import open_sweep, sweep  # noqa: F401,E402  (clbrdf.sweep(model, store, ...): energy sweeps)
-from .table import Table, load_tables, save_tables  # noqa: F401,E402  (renderer-layout tables)
-from .layouts import make_layout, white_furnace  # noqa: F401,E402
+The public namespace. The package's layers, each importing only those below it
+(tests/test_architecture.py): ``cli`` -> ``studies`` -> ``tables`` -> ``api`` -> ``runtime`` ->
+``ref`` -> ``models``; the kernels (``clbrdf.kernels``, C headers) under all of them.
+"""
+from pathlib import Path as _Path
+
+from .api.albedo import AlbedoResult, albedo, albedo_avg, fresnel_avg
+from .api.model import Model, model
+from .api.useless import UselessEstimatorWarning
+from .models import MODELS, presets
+from .models.spec import ParameterError
+from .runtime.device import DeviceError, get_device, list_devices
+from .runtime.launch import WidthFallbackWarning
+from .studies.check import check
+from .studies.sweep import open_sweep, sweep
+from .tables.compute import TargetStderrWarning, albedo_table
+from .tables.layouts import make_layout
+from .tables.table import Table, load_tables, save_tables
+from .version import __version__
+
+
+def get_include() -> str:
+    """The directory of the C headers (``clbrdf.h`` and the model headers) for C, C++, CUDA and
+    OpenCL builds: ``cc -I$(clbrdf --include)``, like ``numpy.get_include()``."""
+    return str(_Path(__file__).resolve().parent / "kernels")
+
+
+__all__ = ["AlbedoResult", "DeviceError", "MODELS", "Model", "ParameterError", "Table",
+           "TargetStderrWarning", "UselessEstimatorWarning", "WidthFallbackWarning",
+           "__version__", "albedo", "albedo_avg", "albedo_table", "check", "fresnel_avg",
+           "get_device", "get_include", "list_devices", "load_tables", "make_layout", "model",
+           "open_sweep", "presets", "save_tables", "sweep"]

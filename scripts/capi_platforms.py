@@ -21,8 +21,8 @@ def main():
     ap.add_argument("--out", default="docs/kernels.md")
     ap.add_argument("--n", type=int, default=400)
     a = ap.parse_args()
-    from clbrdf import capi
-    from clbrdf.device import compiler_error, get_device, list_devices
+    from clbrdf.studies import capi
+    from clbrdf.runtime.device import compiler_error, get_device, list_devices
     devs = [f"{i.platform_index}:{i.device_index}" for i in list_devices()
             if compiler_error((i.platform_index, i.device_index)) is None]
     names = {d: get_device(d).info for d in devs}

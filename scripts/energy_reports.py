@@ -15,9 +15,9 @@ import time
 from pathlib import Path
 
 import clbrdf
-from clbrdf.presets import _label, load, sources
-from clbrdf.report import report
-from clbrdf.sweep import sweep
+from clbrdf.models.presets import _label, load, sources
+from clbrdf.studies.report import report
+from clbrdf.studies.sweep import sweep
 
 # name -> (model, fixed parameters and options, axes as START:STOP[:SPACING] for random points[,
 # overrides of --points and the sample cap for models whose samplers are slow: SGD 5, Bagher's

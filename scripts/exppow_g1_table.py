@@ -37,7 +37,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from clbrdf.ref.holzschuch_pacanowski import lambda_quad, slope_mean  # noqa: E402
+from clbrdf.ref.holzschuch_pacanowski import lambda_quad, slope_mean
 
 NP, NV = 64, 256
 P0, P1 = math.log(0.1), math.log(5.0)

@@ -17,7 +17,7 @@ OUT = ROOT / "kernels" / "clbrdf_models.h"
 
 def uses_tables(spec) -> tuple:
     """The generated tables (kernels/data/NAME.npy) the model's default program reads."""
-    from clbrdf.build import program_source
+    from clbrdf.runtime.build import program_source
     cfg, _ = spec.configure(channels=1)
     return program_source(cfg, "single", 1)[1]
 
@@ -67,7 +67,7 @@ def _ifndef(k, v) -> list:
 
 def generate() -> str:
     sys.path.insert(0, str(ROOT))
-    from clbrdf.build import table_data
+    from clbrdf.runtime.build import table_data
     from clbrdf.models import MODELS
     families = {}
     for name, spec in MODELS.items():

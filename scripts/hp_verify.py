@@ -16,8 +16,8 @@ from scipy import integrate
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from clbrdf.quadrature import cosine_map, hemisphere_integral  # noqa: E402
-from clbrdf.ref import holzschuch_pacanowski as R  # noqa: E402
+from clbrdf.ref.quadrature import cosine_map, hemisphere_integral
+from clbrdf.ref import holzschuch_pacanowski as R
 
 LAMS = R.WAVELENGTHS
 NICKEL = dict(a=0.91, sigma=0.027, p=0.51)

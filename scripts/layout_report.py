@@ -18,7 +18,7 @@ def main():
     ap.add_argument("--out", default="docs/tables.md")
     a = ap.parse_args()
     import clbrdf
-    from clbrdf.layouts import layouts, make_layout
+    from clbrdf.tables.layouts import layouts, make_layout
     warnings.simplefilter("ignore")
     dev = clbrdf.get_device().info
     lines = ["# Renderer tables: what each layout holds and how accurate it is", "",

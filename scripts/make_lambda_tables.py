@@ -48,7 +48,7 @@ from scipy import special
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-from clbrdf.ref import distributions as R  # noqa: E402
+from clbrdf.ref import distributions as R
 
 # axes: shape node i = sref + (i - sidx) / ids, i = 0 .. ns - 1 (written so that the kernel's
 # coordinate (shape - sref) ids + sidx is exact at the special nodes: GTR gamma = 1, 2 and SGD

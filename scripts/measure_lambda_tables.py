@@ -27,9 +27,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 import clbrdf  # noqa: E402
-from clbrdf import build  # noqa: E402
-from clbrdf.ref import distributions as RD  # noqa: E402
-from clbrdf.ref import holzschuch_pacanowski as HP  # noqa: E402
+from clbrdf.runtime import build
+from clbrdf.ref import distributions as RD
+from clbrdf.ref import holzschuch_pacanowski as HP
 
 HEADERS = {"gtr": "dist_gtr.h", "sgd": "dist_sgd.h", "exppow": "dist_exppow.h"}
 SHAPE = {"gtr": "gamma", "sgd": "p", "exppow": "p"}

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 import clbrdf
-from clbrdf.core import QUAD_TOL
+from clbrdf.api.albedo import QUAD_TOL
 from clbrdf.models import MODELS
 from clbrdf.ref import reference
 

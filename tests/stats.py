@@ -14,8 +14,7 @@ import itertools
 import numpy as np
 from scipy import stats as sps
 
-from clbrdf.stats import (HalfVectorMap, MapChi2, chi2_gof, gl01, make_bins, map_chi2,  # noqa: F401
-                          panel_integrals, pool_small, quantile_groups, sidak)
+from clbrdf.studies.stats import HalfVectorMap, MapChi2, chi2_gof, gl01, make_bins, map_chi2, panel_integrals, pool_small, quantile_groups, sidak
 
 def assert_close(got, ref, rtol, atol=0.0, what="", allow_zero=None, context=None):
     """|got - ref| <= rtol |ref| + atol everywhere (NaN fails; rtol and atol may be arrays); where

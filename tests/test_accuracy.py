@@ -5,7 +5,7 @@ import csv
 
 import numpy as np
 
-from clbrdf import accuracy
+from clbrdf.studies import accuracy
 from cliutil import run_inprocess
 
 
@@ -54,7 +54,7 @@ def test_single_precision_chart_has_no_empty_panels():
     has a row per precision measured. From the shipped measurements: every panel has data."""
     import csv
     from pathlib import Path
-    from clbrdf import accuracy as A
+    from clbrdf.studies import accuracy as A
     rows = []
     with open(Path(__file__).parent.parent / "docs/accuracy/accuracy.csv", newline="") as f:
         for r in csv.DictReader(f):

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import clbrdf
-from clbrdf import presets
+from clbrdf.models import presets
 
 
 def model_kwargs(name):

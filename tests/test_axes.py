@@ -4,8 +4,7 @@ import numpy as np
 import pytest
 
 from clbrdf import ParameterError
-from clbrdf.axes import (check_form, describe, evaluated, grid_values, midpoints, parse_axis,
-                         positions, unwarp, warp)
+from clbrdf.tables.axes import check_form, describe, evaluated, grid_values, midpoints, parse_axis, positions, unwarp, warp
 
 
 def test_forms():

@@ -15,9 +15,9 @@ import pytest
 from conftest import OCLGRIND_BUILD_OPTIONS
 
 import clbrdf
-from clbrdf import capi
-from clbrdf.build import kernel_dir
-from clbrdf.device import compiler_error, list_devices
+from clbrdf.studies import capi
+from clbrdf.runtime.build import kernel_dir
+from clbrdf.runtime.device import compiler_error, list_devices
 from clbrdf.models import MODELS
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -89,7 +89,7 @@ def test_c_api_on_every_platform(device, case, tmp_path):
     bit the Python package's own kernels at width 1 on the same device (one source), and within
     ULPS of the C99 build (single, and double where the device has fp64): the per-platform
     agreement that docs/kernels.md records (scripts/capi_platforms.py)."""
-    from clbrdf.device import get_device
+    from clbrdf.runtime.device import get_device
     precisions = ["single"] + (["double"] if get_device(device).info.has_fp64 else [])
     for precision in precisions:
         m = capi.model(case, precision)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import clbrdf
-from clbrdf.check import check, configurations
+from clbrdf.studies.check import check, configurations
 from clbrdf.models import MODELS
 
 # Checks that fail at a model's defaults because the model truly breaks the property (evidence in
@@ -124,7 +124,7 @@ def test_stderr_check_detects_a_wrong_stderr(monkeypatch, scale, passes):
     """The kernels' estimates with their sampling stderr scaled: 5x too small or 5x too large fails
     `stderr honest`; the true stderr passes."""
     import dataclasses
-    C = sys.modules["clbrdf.check"]          # (clbrdf.check is the function)
+    C = sys.modules["clbrdf.studies.check"]
     real = C.albedo
 
     def scaled(*a, **kw):

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import clbrdf
-from clbrdf import presets
+from clbrdf.models import presets
 from cliutil import run_inprocess as run_cli
 
 

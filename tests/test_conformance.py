@@ -24,8 +24,8 @@ import pytest
 from scipy import stats as sps
 
 import clbrdf
-from clbrdf.check import configurations
-from clbrdf.stats import sidak
+from clbrdf.studies.check import configurations
+from clbrdf.studies.stats import sidak
 from clbrdf.ref import reference
 
 # models whose kernels tabulate the Smith Lambda (relative tolerance of eval and pdf)

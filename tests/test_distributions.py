@@ -21,7 +21,7 @@ import pytest
 import clbrdf
 import stats as S
 from clbrdf.ref import distributions as RD
-from clbrdf.spec import ParameterError
+from clbrdf.models.spec import ParameterError
 
 N_SAMPLES = 1 << 20
 # max |G1 - G1_quad| of the Lambda tables (stated in kernels/dist_lambda_tables.h), rounded up
@@ -314,7 +314,7 @@ def bagher_channel(params, c):
 def test_bagher_presets_match_dj_brdf_formula():
     """Every preset of sgd_bagher2012_fits.csv, evaluated by the kernel (channels=3, double) at
     16 direction pairs, against bagher_eval (dj_brdf djb::sgd::eval written out in NumPy)."""
-    from clbrdf import presets
+    from clbrdf.models import presets
     rng = np.random.default_rng(7)
     wi, wo = rand_dirs(rng, 16, 0.05), rand_dirs(rng, 16, 0.05)
     rows = _bagher_rows()

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import clbrdf
-from clbrdf.spec import MU_MIN
+from clbrdf.models.spec import MU_MIN
 
 CASES = [
     ("ggx", dict(alpha=1e-3, kd=0.2, sampler="ndf")),

@@ -15,7 +15,7 @@ from scipy import integrate, special
 
 import clbrdf
 import stats as S
-from clbrdf import build
+from clbrdf.runtime import build
 from clbrdf.ref import holzschuch_pacanowski as R
 
 LAMS = R.WAVELENGTHS

@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from clbrdf import ladder as L
+from clbrdf.studies import ladder as L
 from clbrdf.ref import reference
 from cliutil import run_inprocess
 

@@ -21,9 +21,9 @@ import pytest
 from scipy import stats as sps
 
 import clbrdf
-from clbrdf.layouts import compute_table, get_layout, layout_table, layouts, make_layout
-from clbrdf.stats import sidak
-from clbrdf.table import Table, load_tables, save_tables
+from clbrdf.tables.layouts import compute_table, get_layout, layout_table, layouts, make_layout
+from clbrdf.studies.stats import sidak
+from clbrdf.tables.table import Table, load_tables, save_tables
 from cliutil import run_inprocess
 
 DATA = Path(__file__).parent / "data" / "renderers"
@@ -605,7 +605,7 @@ def test_white_furnace_after_compensation_is_one_within_the_table_error():
     """Turquin's f_ss / E and Kulla-Conty's f_ss + f_ms with the Cycles-layout tables give an
     albedo of 1 within the table's reported interpolation error plus 5 standard errors (of the
     direct E_ss and of the table), where the uncompensated GGX loses up to 69 % (r = 1, mu = 1)."""
-    from clbrdf.layouts import white_furnace
+    from clbrdf.studies.furnace import white_furnace
     tables = make_layout("cycles", samples=1 << 18)
     f = white_furnace(tables, samples=1 << 18)
     t = tables["table_ggx_E"]
@@ -730,7 +730,7 @@ def test_clamped_cells_count_every_part():
     apart; the metadata counted the clamped cells of the first part only (0, where the cloth
     channel clamps 448 cells of the published table, true values up to 9.55). A 16 x 16 version
     of the same table: the count is the cells outside [0, 1] before clamping, every channel."""
-    from clbrdf.layouts import get_layout, layout_table
+    from clbrdf.tables.layouts import get_layout, layout_table
     lay = get_layout("filament")
     tab = json.loads(json.dumps(lay["tables"][0]))
     tab["axes"] = ["r=0:1:16:centres:min=0.01", "mu=0:1:16:centres"]
@@ -792,7 +792,7 @@ def test_white_furnace_takes_every_layout_with_an_e(name):
     channel E or 1 - E, or A + B (three.js, MaterialX), over r or alpha (MaterialX). After
     Turquin's compensation the albedo is 1 within 5 standard errors of the table and of E_ss,
     and an interpolation error of at most 0.05 (these grids at the furnace's points)."""
-    from clbrdf.layouts import white_furnace
+    from clbrdf.studies.furnace import white_furnace
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         tables = make_layout(name, samples=256, check_interpolation=False)
@@ -809,7 +809,7 @@ def test_the_users_estimator_applies_to_every_channel():
     """`--estimator` was silently ignored for a layout channel of another model (Filament's
     cloth channel kept its mis); the caller's estimator now applies to every channel, and
     without one the layout's choice stands."""
-    from clbrdf.layouts import get_layout, layout_table
+    from clbrdf.tables.layouts import get_layout, layout_table
     lay = get_layout("filament")
     tab = json.loads(json.dumps(lay["tables"][0]))
     tab["axes"] = ["r=0:1:4:centres:min=0.01", "mu=0:1:4:centres"]

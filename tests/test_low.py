@@ -21,7 +21,7 @@ import pytest
 
 import clbrdf
 import stats as S
-from clbrdf import presets
+from clbrdf.models import presets
 from clbrdf.ref import microfacet as R
 from clbrdf.ref import low as L
 

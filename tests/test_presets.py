@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import clbrdf
-from clbrdf import presets
-from clbrdf.spec import ParameterError
+from clbrdf.models import presets
+from clbrdf.models.spec import ParameterError
 
 FILES = ["low_lowsmooth_E2.fit", "low_lowmicrofacet_E2.fit", "low_cooktorrance_E1.fit",
          "low_cooktorrance_E2.fit", "low_ashikhminshirley_E1.fit", "low_ashikhminshirley_E2.fit",

@@ -17,7 +17,7 @@ import pytest
 
 import clbrdf
 from clbrdf import runtime
-from clbrdf.core import QUAD_TOL
+from clbrdf.api.albedo import QUAD_TOL
 from clbrdf.models import LAMBDA_TABLE_G1_ERROR as TABLE_DG1, MODELS
 from clbrdf.ref import reference
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import clbrdf
-from clbrdf.spec import ParameterError
+from clbrdf.models.spec import ParameterError
 
 F0 = [0.04, 0.5, 0.95]
 ETA, K = [1.2, 0.3, 2.5], [0.1, 2.0, 3.5]

@@ -7,7 +7,7 @@ import pytest
 
 import clbrdf
 from clbrdf import runtime
-from clbrdf.spec import MU_MIN
+from clbrdf.models.spec import MU_MIN
 
 
 def test_single_precision_stderr_matches_double():
@@ -124,7 +124,7 @@ def test_bad_width_environment_variable_is_named(monkeypatch):
 def test_selector_of_a_broken_device_says_so():
     """A selector that matches only a device whose compiler fails (here PyPI's PoCL, LLVM 14, on
     a CPU it does not know) names the device and the compiler's error."""
-    from clbrdf.device import compiler_error, list_devices
+    from clbrdf.runtime.device import compiler_error, list_devices
     broken = [d for d in list_devices() if compiler_error((d.platform_index, d.device_index))]
     if not broken:
         pytest.skip("every OpenCL device here compiles")
@@ -138,7 +138,7 @@ def test_default_device_prefers_the_newest_pocl():
     """Among CPUs the default is the newest PoCL's (Debian's 3.1 ran GGX 1.2x faster than PyPI's
     3.0-rc2 on one Xeon): release above its candidates, GPUs first, other CPUs last; and on this
     machine the chosen default is the newest working PoCL present."""
-    from clbrdf.device import DeviceInfo, compiler_error, default_order, list_devices, pocl_version
+    from clbrdf.runtime.device import DeviceInfo, compiler_error, default_order, list_devices, pocl_version
 
     def info(pi, platform, gpu=False):
         return DeviceInfo(pi, 0, f"dev{pi}", platform, gpu, True, 2)
@@ -162,7 +162,7 @@ def test_tables_are_data_and_sources_are_assembled_once():
     """Generated tables reach the kernels as one device buffer per device, not as source text
     (gtr's program was 2 MB of source with its Lambda table pasted in, about 10 ms per eval call
     to assemble and hash); a configuration's source is assembled once."""
-    from clbrdf import build
+    from clbrdf.runtime import build
     wo, wi = np.array([[0.0, 0.6, 0.8]]), np.array([[0.0, -0.6, 0.8]])
     for name, tables in (("gtr", ("gtr_lambda",)), ("sgd", ("sgd_lambda",)),
                          ("exppow", ("exppow_g1",)), ("ggx", ())):
@@ -187,7 +187,7 @@ def test_a_device_that_aborts_at_width_16_runs_at_width_1(tmp_path, monkeypatch)
     in a child process and falls back to width 1 with a warning naming the fast path; the
     albedo there is right. Skipped where no such PoCL is installed."""
     import clbrdf
-    from clbrdf.device import list_devices, pocl_version
+    from clbrdf.runtime.device import list_devices, pocl_version
     old = [d for d in list_devices() if (pocl_version(d) or (9,))[:2] == (3, 0)]
     if not old:
         pytest.skip("no PoCL 3.0 here")

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from scipy import special as sp
 
-from clbrdf import build
+from clbrdf.runtime import build
 
 SRC = """
 __kernel void ginv(const global real_t *A, const global real_t *Pr, const global real_t *Qr,

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 import clbrdf
-from clbrdf import stability as S
+from clbrdf.api import useless as U
+from clbrdf.studies import stability as S
 from clbrdf.models import get_spec
 from clbrdf.ref import reference
 from cliutil import run_inprocess
@@ -27,18 +28,18 @@ def test_sweeps_cover_every_model_within_range():
 
 
 def test_shipped_map_covers_every_cell():
-    rows = S._read_csv(S.MAP)
+    rows = S._read_csv(U.MAP)
     have = {(r["model"], r["sweep"], r["value"], r["mu"], r["estimator"], r["sampler"],
              r["precision"]) for r in rows}
-    from clbrdf.spec import MU_MIN
+    from clbrdf.models.spec import MU_MIN
     for name, sweeps in S.SWEEPS.items():
         for names, values in sweeps:
             for v in values:
                 for prec in ("single", "double"):
                     for mu in (m for m in S.MUS if m >= MU_MIN[prec]):
                         for est in S.ESTIMATORS + ("quadrature",):
-                            for smp in (S.samplers(name) if est in ("brdf", "mis") else ("-",)):
-                                key = (name, S.sweep_label(names), float(v), float(mu), est, smp,
+                            for smp in (U.samplers(name) if est in ("brdf", "mis") else ("-",)):
+                                key = (name, U.sweep_label(names), float(v), float(mu), est, smp,
                                        prec)
                                 assert key in have, key
     # at every cell and precision the best estimator has efficiency 1
@@ -70,15 +71,15 @@ def test_small_map_files_and_flags(small_map):
     for r in rows[::197]:
         e, err = reference("ggx", alpha=r["value"]).albedo(r["mu"], 0.0, 1e-7)
         assert abs(float(e) - r["E_ref"]) <= 4 * (r["ref_err"] + float(err)) + 1e-12
-    from clbrdf.core import QUAD_TOL
+    from clbrdf.api.albedo import QUAD_TOL
     for r in rows:
         # the flags follow from the numbers in the row
         if r["estimator"] == "quadrature":
             assert r["biased"] == int(r["z"] > 1)
             assert r["useless"] == int(r["stderr"] > QUAD_TOL[r["precision"]])
             continue
-        assert r["biased"] == int(math.isfinite(r["E"]) and r["z"] > S.Z_BIAS)
-        assert r["useless"] == int(r["efficiency"] < S.USELESS)
+        assert r["biased"] == int(math.isfinite(r["E"]) and r["z"] > U.Z_BIAS)
+        assert r["useless"] == int(r["efficiency"] < U.USELESS)
         if r["precision"] == "double":
             assert r["precision_loss"] == 0
     by = {(r["value"], r["mu"], r["estimator"], r["sampler"], r["precision"]): r for r in rows}
@@ -118,7 +119,7 @@ def test_precision_loss_is_single_biased_where_double_is_sound():
 
 def test_warns_where_the_map_marks_useless():
     m = clbrdf.Model("ggx", alpha=1e-3)
-    with pytest.warns(S.UselessEstimatorWarning, match=r"uniform.*ggx.*alpha=0.001"):
+    with pytest.warns(U.UselessEstimatorWarning, match=r"uniform.*ggx.*alpha=0.001"):
         r = clbrdf.albedo(m, 0.6, estimator="uniform", samples=1 << 12)
     # and the warning is deserved: the estimate misses the reference far beyond its sampling
     # error; the reported error, which covers what the samples cannot see, says so (it is larger
@@ -127,7 +128,7 @@ def test_warns_where_the_map_marks_useless():
     assert abs(float(r.albedo) - e_ref) > 4 * float(r.sampling_stderr)
     assert abs(float(r.albedo) - e_ref) < 4 * float(r.stderr) and float(r.stderr) > 1
     with warnings.catch_warnings():
-        warnings.simplefilter("error", S.UselessEstimatorWarning)
+        warnings.simplefilter("error", U.UselessEstimatorWarning)
         clbrdf.albedo(m, 0.6, estimator="brdf", samples=1 << 12)
         clbrdf.albedo(clbrdf.Model("ggx", alpha=0.5), 0.6, estimator="uniform", samples=1 << 12)
         clbrdf.albedo(m, 0.6, estimator="quadrature")
@@ -135,13 +136,13 @@ def test_warns_where_the_map_marks_useless():
 
 def test_warning_counts_only_the_useless_points():
     m = clbrdf.Model("ggx", alpha=np.array([1e-3, 0.5, 0.5, 0.5]))
-    with pytest.warns(S.UselessEstimatorWarning, match=r"at 25% of these points"):
+    with pytest.warns(U.UselessEstimatorWarning, match=r"at 25% of these points"):
         clbrdf.albedo(m, 0.6, estimator="uniform", samples=1 << 10)
 
 
 def test_cli_warns_and_succeeds():
     with warnings.catch_warnings():     # shown as a user's process shows it (pyproject.toml)
-        warnings.simplefilter("default", S.UselessEstimatorWarning)
+        warnings.simplefilter("default", U.UselessEstimatorWarning)
         r = run_inprocess("albedo", "ggx", "-p", "alpha=1e-3", "--mu", "0.6", "--estimator",
                           "uniform", "--samples", "4096")
     assert r.returncode == 0, r.stderr
@@ -176,10 +177,10 @@ def test_low_smooth_reference_at_grazing(b):
 
 def test_shipped_map_claims():
     """What README.md and docs/stability/findings.md say of the shipped map."""
-    rows = S._read_csv(S.MAP)
+    rows = S._read_csv(U.MAP)
     assert not any(r["nonfinite"] for r in rows)
     assert not any(r["precision_loss"] for r in rows)
-    with open(S.MAP.resolve().parent / "checks.csv") as f:
+    with open(U.MAP.resolve().parent / "checks.csv") as f:
         assert all(c["passed"] == "1" for c in csv.DictReader(f))
     # biased where the estimator is efficient (within 10x of the best, as the reproduction test
     # below): Monte Carlo in Schlick 1994 at grazing angles only; between 1e-2 and 1e-1 of the
@@ -188,7 +189,7 @@ def test_shipped_map_claims():
     bad = [r for r in rows if r["biased"] and not r["useless"]]
     mc = [r for r in bad if r["estimator"] != "quadrature"]
     assert mc and all(r["model"] == "schlick" and r["mu"] <= 1e-6 and r["value"] <= 1e-3
-                      for r in mc if r["efficiency"] >= 10 * S.USELESS)
+                      for r in mc if r["efficiency"] >= 10 * U.USELESS)
     assert sum(r["model"] != "schlick" for r in mc) <= 2, [r for r in mc if r["model"] != "schlick"]
     # an estimate of 0 +- 0 where E is representable (no sample contributed) is never useful
     tiny = {"single": float(np.finfo(np.float32).smallest_subnormal), "double": 0.0}
@@ -209,14 +210,14 @@ def test_map_reproduces_with_another_seed(name, monkeypatch):
     cells: seed 12345 puts low_smooth B = 1e6, mu = 0.1, cosine sampling at 6.2e-6 +- 1.1e-6 for
     1.2e-5 (efficiency 0.015), a miss of the weights' tail, not a defect of the kernel."""
     monkeypatch.setattr(S, "SEED", 12345)
-    refs = {k[1:]: v for k, v in S.ref_cache(S.MAP).items() if k[0] == name}
+    refs = {k[1:]: v for k, v in S.ref_cache(U.MAP).items() if k[0] == name}
     rows, checks = S.measure(name, refs)
     assert not any(r["nonfinite"] or r["precision_loss"] for r in rows)
     assert all(c["passed"] for c in checks)
     for r in rows:
-        if r["biased"] and r["efficiency"] >= 10 * S.USELESS:
+        if r["biased"] and r["efficiency"] >= 10 * U.USELESS:
             assert name == "schlick" and r["mu"] <= 1e-6 and r["value"] <= 1e-3, r
-    shipped = {S._key(r) + (r["precision"],): r["useless"] for r in S._read_csv(S.MAP)
+    shipped = {S._key(r) + (r["precision"],): r["useless"] for r in S._read_csv(U.MAP)
                if r["model"] == name}
     same = np.mean([shipped[S._key(r) + (r["precision"],)] == r["useless"] for r in rows])
     assert same >= 0.9, same

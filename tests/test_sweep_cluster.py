@@ -13,8 +13,8 @@ import pytest
 
 pytest.importorskip("distributed")
 
-from clbrdf.cluster import POCL_THREAD_VARIABLES, local_cluster  # noqa: E402
-from clbrdf.sweep import open_sweep, sweep  # noqa: E402
+from clbrdf.studies.cluster import POCL_THREAD_VARIABLES, local_cluster
+from clbrdf.studies.sweep import open_sweep, sweep
 from distributed import Client  # noqa: E402
 from test_sweep import same_store  # noqa: E402
 

@@ -193,8 +193,8 @@ def test_layout_cells_cover_the_true_error(layout, table, rows):
     default estimator (brdf, Sobol points), against the float64 reference, every cell (channel E
     of ue5's table; the table's roughness axis is r, alpha = r^2, evaluated at min= where
     given)."""
-    from clbrdf.axes import check_form, evaluated, parse_axis
-    from clbrdf.layouts import get_layout, layout_table
+    from clbrdf.tables.axes import check_form, evaluated, parse_axis
+    from clbrdf.tables.layouts import get_layout, layout_table
     lay = get_layout(layout)
     tab = json.loads(json.dumps([t for t in lay["tables"] if t["name"] == table][0]))
     axis = lambda p: check_form(parse_axis([a for a in tab["axes"] if a.startswith(p)][0]))

@@ -6,7 +6,7 @@ models, in module order: lambert and microfacet first, then the others by name.
 import importlib
 import pkgutil
 
-from ..spec import ModelSpec, ParameterError
+from .spec import ModelSpec, ParameterError
 
 _FIRST = ("lambert", "microfacet")
 # max |G1 error| of the tabulated Smith Lambda over every accepted parameter and direction

@@ -29,7 +29,7 @@ albedo, kd = Lambertian albedo, and no rd.
 """
 import numpy as np
 
-from ..spec import ModelSpec, Option, Param, ParameterError
+from .spec import ModelSpec, Option, Param, ParameterError
 
 PARAMS = (
     Param("nu", "Phong exponent along the tangent u (x)", 0.0, 1e7, 100.0),

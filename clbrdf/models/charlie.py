@@ -8,7 +8,7 @@ with G from Estevez and Kulla's fitted Lambda (``visibility=charlie``) or Neubel
 Pettineo's visibility 1 / (4 (cos_i + cos_o - cos_i cos_o)) in place of G / (4 cos_i cos_o)
 (``visibility=ashikhmin``, Filament's cloth). glTF's alpha is sheenRoughness^2.
 """
-from ..spec import ModelSpec, Option, Param, ParameterError
+from .spec import ModelSpec, Option, Param, ParameterError
 
 PARAMS = (
     Param("alpha", "roughness (glTF: sheenRoughness^2)", 1e-3, 1.0, 0.25),

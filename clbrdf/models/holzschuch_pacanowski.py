@@ -12,8 +12,8 @@ albedo is at most 1) or ``paper`` (E = pi (1 + 1/(a^2 lambda^2)) as printed).
 ``exppow``: the microfacet model (clbrdf.models.microfacet) with D = exponential power; ``alpha``
 is sigma, ``p`` the kurtosis; isotropic; sampler ``ndf`` (eq 22-23).
 """
-from ..spec import ModelSpec, Option, Param
 from . import microfacet
+from .spec import ModelSpec, Option, Param
 
 WAVELENGTHS = {"red": 0.645, "green": 0.526, "blue": 0.444}
 

@@ -1,5 +1,5 @@
 """Lambertian reflection: f = kd / pi. Kernel: kernels/lambert.h."""
-from ..spec import ModelSpec, Param
+from .spec import ModelSpec, Param
 
 SPEC = ModelSpec(
     name="lambert",

@@ -26,7 +26,7 @@ albedo/pi, LowSmooth as A (1 + B |Ip + Op|^2)^-C F_cook(eta, sqrt(1 - |Ip - Op|^
 LowMicrofacetFit as A D G F_cook(eta, wi.h) / (pi cos_i cos_o) with D = (1 + B (1 - h.z))^-C and
 V-groove G, which are exactly these models with kd = albedo, a = A, b = B, c = C, eta = eta.
 """
-from ..spec import ModelSpec, Option, Param
+from .spec import ModelSpec, Option, Param
 
 PARAMS_ABC = (
     Param("a", "A of the ABC function S = A / (1 + B f^2)^C (eq 11): scale of the lobe",

@@ -12,7 +12,7 @@ Other distributions plug in with ``spec(name, ..., header="dist_<name>.h", shape
 the header provides <name>_D, <name>_Lambda, <name>_sample_ndf (and <name>_sample_vndf) on a
 ``Microfacet`` whose ``shape`` field holds the extra parameter.
 """
-from ..spec import ModelSpec, Option, Param, ParameterError
+from .spec import ModelSpec, Option, Param, ParameterError
 
 ROUGH = (1e-4, 10.0)
 

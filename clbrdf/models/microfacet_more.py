@@ -13,8 +13,8 @@ SGD BRDF of Bagher, Soler & Holzschuch 2012 with its published MERL fits as pres
 from dataclasses import replace
 from math import pi
 
-from ..spec import ModelSpec, Param
 from .microfacet import spec
+from .spec import ModelSpec, Param
 
 GTR_ALPHA = (1e-3, 0.999)     # a = 1 is the degenerate D = 1/pi; the Lambda table's a range
 SGD_ALPHA = (1e-5, 1.0)       # the published fits reach 1.6e-5; the Lambda table's a range

@@ -10,7 +10,7 @@ The sampler is ours (the paper has none): see kernels/schlick.h and docs/models/
 """
 from math import pi
 
-from ..spec import ModelSpec, Option, Param, ParameterError
+from .spec import ModelSpec, Option, Param, ParameterError
 
 R_MIN = 1e-7          # r -> 0 is a mirror (a Dirac), which a BRDF kernel cannot represent
 P_MIN = 1e-6          # p -> 0 makes A a Dirac in the azimuth

@@ -9,7 +9,7 @@ at grazing angles (docs/models.md).
 """
 import numpy as np
 
-from ..spec import ModelSpec, Param
+from .spec import ModelSpec, Param
 
 PARAMS = (
     Param("alpha_x", "slope deviation along the tangent x", 1e-3, 1.0, 0.2),

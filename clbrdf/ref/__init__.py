@@ -21,6 +21,8 @@ import importlib
 
 import numpy as np
 
+from ..models import get_spec, presets
+
 
 class Reference:
     reciprocal = True
@@ -72,7 +74,6 @@ class Reference:
 def reference(model, **kwargs) -> Reference:
     """The float64 reference of a configuration: ``reference("ggx", alpha=0.2)``,
     ``reference("sgd_bagher", preset="gold-paint")`` or ``reference(clbrdf.Model(...))``."""
-    from ..models import get_spec
     if not isinstance(model, str):                # a clbrdf.Model
         if kwargs:
             raise TypeError("reference(model): give keywords with a model name, not with a Model")
@@ -82,7 +83,6 @@ def reference(model, **kwargs) -> Reference:
         preset = kwargs.pop("preset", None)
         channels = kwargs.pop("channels", None)
         if preset is not None:
-            from .. import presets
             p = presets.get(spec.name, preset)
             kwargs = {**p.options, **p.params, **kwargs}
             channels = 3 if channels is None else channels

@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import integrate
 
-from .. import quadrature as R
+from . import quadrature as R
 
 INV_PI = 1 / np.pi
 DEFAULTS = dict(nu=10.0, nv=10.0, rs=0.05, rd=0.0, kd=0.0, ks=1.0, eta=1.5)
@@ -264,7 +264,7 @@ def spec_fraction_above(mu, phi, nu, nv):
 # ---------------------------------------------------------------------------------------------
 # The registered reference (clbrdf.ref.Reference)
 
-from . import Reference  # noqa: E402
+from . import Reference
 
 
 class ASReference(Reference):

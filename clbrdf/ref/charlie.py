@@ -4,8 +4,15 @@ written without the kernel. Quadrature over the cosine map and the half-vector m
 theta_h (inverse CDF s = u^(alpha / (2 alpha + 1)) of s = sin theta_h, reflected)."""
 import numpy as np
 
-from ..quadrature import cosine_map, direction, dot, hemisphere_integral, normalize, reflect
 from . import Reference
+from .quadrature import (
+    cosine_map,
+    direction,
+    dot,
+    hemisphere_integral,
+    normalize,
+    reflect,
+)
 
 FIT = np.array([[21.5473, 3.82987, 0.19823, -1.97760, -4.32054],    # at (1 - alpha)^2 = 0
                 [25.3245, 3.32435, 0.16801, -1.27393, -4.85967]])   # at (1 - alpha)^2 = 1

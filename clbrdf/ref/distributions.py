@@ -25,7 +25,8 @@ import math
 import numpy as np
 from scipy import integrate, optimize, special
 
-from ..quadrature import half_cos
+from . import microfacet as REF
+from .quadrature import half_cos
 
 INV_PI = 1 / np.pi
 
@@ -366,7 +367,6 @@ def albedo(model, mu, phi=0.0, tol=1e-8, **params):
     slow) or a Smith masking; the half-vector map of GGX (GTR: same tails x^-2) or of Beckmann with
     a^2 = alpha (SGD: same tail e^-x/alpha). sgd_bagher (scalar parameters): specular term over
     that map, rho_d / pi over the cosine map."""
-    from . import microfacet as REF
     wo = REF.direction(float(mu), float(phi))
     params = dict(params)
     alpha = float(params.pop("alpha"))
@@ -390,7 +390,7 @@ def albedo(model, mu, phi=0.0, tol=1e-8, **params):
 # ---------------------------------------------------------------------------------------------
 # The registered references (clbrdf.ref.Reference)
 
-from . import microfacet as _mf  # noqa: E402
+from . import microfacet as _mf
 
 
 class TabulatedReference(_mf.MicrofacetReference):

@@ -33,7 +33,15 @@ import numpy as np
 from scipy import integrate, special
 from scipy.interpolate import CubicSpline
 
-from ..quadrature import INV_PI, cosine_map, dot, half_cos, hemisphere_integral, normalize, reflect
+from .quadrature import (
+    INV_PI,
+    cosine_map,
+    dot,
+    half_cos,
+    hemisphere_integral,
+    normalize,
+    reflect,
+)
 
 WAVELENGTHS = (0.645, 0.526, 0.444)     # um, R G B (paper section 5.5)
 
@@ -297,7 +305,7 @@ def albedo(mu, phi=0.0, tol=1e-8, **params):
 # ---------------------------------------------------------------------------------------------
 # The registered references (clbrdf.ref.Reference)
 
-from . import Reference, microfacet as _mf  # noqa: E402
+from . import Reference, microfacet as _mf
 
 _BANDS = {"red": WAVELENGTHS[0], "green": WAVELENGTHS[1], "blue": WAVELENGTHS[2]}
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import quadrature as R
+from . import quadrature as R
 
 INV_PI = 1 / np.pi
 SMOOTH_DEFAULTS = dict(a=1.0, b=100.0, c=1.0, eta=1.5, kd=0.0, a2=0.0, b2=10.0, c2=1.0)
@@ -395,7 +395,7 @@ def albedo_variance(mu, phi=0.0, tol=1e-8, **params):
 # ---------------------------------------------------------------------------------------------
 # The registered references (clbrdf.ref.Reference)
 
-from . import Reference  # noqa: E402
+from . import Reference
 
 
 class LowReference(Reference):

@@ -22,8 +22,19 @@ of the lobe (``halfvector_map``) and the cosine map.
 import numpy as np
 from scipy import special
 
-from ..quadrature import (INV_PI, _rule, _vec, adaptive_gl1, cosine_map, direction, dot,  # noqa: F401 (spherical: re-exported)
-                          half_cos, hemisphere_integral, normalize, reflect, spherical)
+from .quadrature import (
+    INV_PI,
+    _rule,
+    _vec,
+    adaptive_gl1,
+    cosine_map,
+    direction,
+    dot,
+    half_cos,
+    hemisphere_integral,
+    normalize,
+    reflect,
+)
 
 MODELS = ("lambert", "beckmann", "ggx")
 DISTRIBUTIONS = ("beckmann", "ggx")
@@ -392,7 +403,7 @@ def albedo_avg(model, tol=1e-8, n_phi=8, **params):
 # every distribution (Beckmann and GGX here, GTR and SGD from distributions.py, the exponential
 # power from holzschuch_pacanowski.py).
 
-from . import Reference  # noqa: E402
+from . import Reference
 
 
 class LambertReference(Reference):

@@ -29,7 +29,7 @@ v' is 2/3). DOUBLE chooses layer 1 with probability sum_c S_c(v) / (sum_c S_c(v)
 import numpy as np
 from scipy import special
 
-from ..quadrature import half_cos, hemisphere_integral
+from .quadrature import half_cos, hemisphere_integral
 
 INV_PI = 1 / np.pi
 MATERIALS = ("single", "double")
@@ -419,7 +419,7 @@ if __name__ == "__main__":
 # ---------------------------------------------------------------------------------------------
 # The registered reference (clbrdf.ref.Reference)
 
-from . import Reference  # noqa: E402
+from . import Reference
 
 
 class SchlickReference(Reference):

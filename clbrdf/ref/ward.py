@@ -4,9 +4,9 @@ of a Beckmann distribution with the same alpha_x, alpha_y (its density D h_z / (
 sampler's, Walter eq 9), the Lambertian term exactly (kd)."""
 import numpy as np
 
-from ..quadrature import INV_PI, direction, half_cos, hemisphere_integral
 from . import Reference
 from .microfacet import halfvector_map
+from .quadrature import INV_PI, direction, half_cos, hemisphere_integral
 
 
 def _parts(wo, wi, ax, ay):

@@ -28,8 +28,16 @@ import os
 import platform
 import time
 
-import dask
-from distributed import Client, LocalCluster, WorkerPlugin, as_completed, get_worker
+try:                                    # the optional [cluster] extra
+    import dask
+    from distributed import Client, LocalCluster, WorkerPlugin, as_completed, get_worker
+except ImportError:
+    dask = None
+    WorkerPlugin = object
+from ..models.spec import ParameterError
+from ..runtime.device import get_device
+from ..runtime.launch import working_width
+from .sweepjob import compute_chunk, device_fingerprint
 
 _STATE: dict = {}
 POCL_THREAD_VARIABLES = ("POCL_CPU_MAX_CU_COUNT", "POCL_MAX_PTHREAD_COUNT")
@@ -44,19 +52,16 @@ class DevicePlugin(WorkerPlugin):
         self.device = device
 
     def setup(self, worker):
-        from .device import get_device
         _STATE["device"] = get_device(self.device)
 
 
 def _device(selector):
     if "device" not in _STATE:          # a worker that joined without the plugin's setup
-        from .device import get_device
         _STATE["device"] = get_device(selector)
     return _STATE["device"]
 
 
 def _chunk_task(job: dict, index: int, selector):
-    from .sweep import compute_chunk, device_fingerprint
     dev = _device(selector)
     t0 = time.perf_counter()
     arrays = compute_chunk(job, index, dev)
@@ -70,7 +75,6 @@ def _chunk_task(job: dict, index: int, selector):
 
 
 def _width(selector, precision):
-    from .runtime import working_width
     return working_width(_device(selector), precision)
 
 
@@ -125,9 +129,16 @@ def run_on_cluster(client: Client, root, path, job: dict, todo: list, stop, bar,
         raise interrupted
 
 
+def _need_distributed():
+    if dask is None:
+        raise ImportError("sweeps on a cluster need dask.distributed: pip install "
+                          "'clbrdf[cluster]'")
+
+
 def local_cluster(n_workers: int = 2, threads_per_worker: int = 1, **kw) -> LocalCluster:
     """A LocalCluster of worker processes whose PoCL uses ``threads_per_worker`` cores each
     (set before the workers spawn, and for workers the nanny restarts later)."""
+    _need_distributed()
     dask.config.set({f"distributed.nanny.pre-spawn-environ.{k}": str(threads_per_worker)
                      for k in POCL_THREAD_VARIABLES})
     kw.setdefault("dashboard_address", None)
@@ -138,9 +149,11 @@ def local_cluster(n_workers: int = 2, threads_per_worker: int = 1, **kw) -> Loca
 def connect(address: str) -> Client:
     """``local:N`` (a LocalCluster of N single-threaded workers on this machine) or a scheduler
     address (``tcp://host:8786``)."""
+    _need_distributed()
     if address.startswith("local:"):
         n = address[6:]
         if not n.isdigit() or not 1 <= int(n) <= 1024:
-            raise ValueError(f"--cluster {address!r}: local:N needs N in [1, 1024]")
+            raise ParameterError(f"address={address!r} is not valid: local:N needs N in [1, "
+                                 f"1024]")
         return Client(local_cluster(int(n)))
     return Client(address)

@@ -17,6 +17,7 @@ import re
 
 import numpy as np
 
+from ..version import __version__
 from .axes import describe
 
 PORTABILITY = """\
@@ -177,7 +178,6 @@ def _lookup(t, cname: str, args: list) -> str:
 
 def c_header(tables: dict, *, prefix: str = "clbrdf", guard: str = "tables.h") -> str:
     """The header text for {name: Table} (module docstring)."""
-    from . import __version__
     first = next(iter(tables.values()))
     m = first.meta
     g = _c_ident(f"CLBRDF_{prefix}_{guard}").upper()

@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from .spec import ParameterError
+from ..models.spec import ParameterError, check_int
 
 SPACINGS = ("lin", "log", "sqrt")
 PLACEMENTS = ("nodes", "centres")
@@ -190,7 +190,6 @@ def check_form(ax: dict, random: bool = False) -> dict:
     if count is None:
         raise ParameterError(f"axis {name}: a grid axis needs a COUNT (START:STOP:COUNT) or "
                              f"a list of values; or use random points (--random N)")
-    from .runtime import check_int
     count = check_int(f"axis {name} COUNT", count, 1, MAX_COUNT)
     out = {"name": name, "start": start, "stop": stop, "count": count, "spacing": spacing}
     if placement != "nodes":

@@ -16,9 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .build import kernel_dir, program_source, table_data
-from .core import Model
-from .models import MODELS
+from ..api.model import Model
+from ..runtime.build import kernel_dir, program_source, table_data
+from ..runtime.device import get_device
 
 CASES = [
     ("lambert", "lambert", {}),
@@ -179,7 +179,6 @@ def run_opencl(name: str, precision: str, wo, wi, u, device=None,
                std: str = "CL1.2") -> np.ndarray:
     """The outputs of the C API compiled as OpenCL C (``std``) on ``device`` (a selector)."""
     import pyopencl as cl
-    from .device import get_device
     dev = get_device(device)
     m = model(name, precision, device=dev)
     src = CL_PROGRAM % {"prefix": m.spec.prefix, "model": m.name, "assign": _assign(m),

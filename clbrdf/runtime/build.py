@@ -14,8 +14,8 @@ from functools import lru_cache
 from importlib import resources
 from pathlib import Path
 
-from .device import Device, DeviceError
-from .spec import Config
+from ..models.spec import Config
+from .device import Device, DeviceError, get_device
 
 _INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$', re.M)
 BLOCK = 1024          # samples per work-item in the albedo kernel, at most
@@ -182,7 +182,6 @@ def run_functions(headers, source: str, kernel: str, inputs, outputs: int = 1, *
     ``width`` with their last value. Returns the ``outputs`` arrays as float64."""
     import numpy as np
     import pyopencl as cl
-    from .device import get_device
     device = device or get_device()
     seen: set = set()
     body = [f"#define CLBRDF_DOUBLE {int(precision == 'double')}", f"#define W {width}",

@@ -14,13 +14,17 @@ from importlib import resources
 
 import numpy as np
 
-from .spec import ParameterError
+from ..api.albedo import fresnel_avg
+from ..api.model import Model
+from ..models.spec import ParameterError
+from .axes import check_form, evaluated, midpoints, parse_axis
+from .compute import albedo_table
+from .table import ENCODINGS, Table, encode
 
 CHECK_SAMPLES = 1 << 18   # samples per midpoint of the interpolation check (at most)
 QUANTITIES = ("E", "1-E", "E_avg", "1-E_avg", "A", "B", "A_avg", "B_avg", "F_avg", "E_kc", "1-E_kc",
               "E_kc_avg", "1-E_kc_avg")
 FRESNEL_AXES = ("f0", "f90", "eta", "k")
-ENCODINGS = ("float32", "float16", "unorm16")
 
 
 def layouts() -> dict:
@@ -44,28 +48,9 @@ def _quantities(q) -> list:
     return qs
 
 
-def encode(values: np.ndarray, encoding: str) -> np.ndarray:
-    """The consumer's stored form of values in [0, 1] (float16 and unorm16 round to nearest)."""
-    if encoding == "float32":
-        return values.astype(np.float32)
-    if encoding == "float16":
-        return values.astype(np.float16)
-    if encoding == "unorm16":
-        return np.round(np.clip(values, 0, 1) * 65535).astype(np.uint16)
-    raise ParameterError(f"encoding={encoding!r} is not valid: choose one of {', '.join(ENCODINGS)}")
-
-
-def decode(raw: np.ndarray, encoding: str) -> np.ndarray:
-    """What the consumer reads from the stored form, as float64."""
-    if encoding == "unorm16":
-        return raw.astype(np.float64) / 65535
-    return raw.astype(np.float64)
-
-
 def _run(model, axl, qs, fixed, **kw):
     """albedo_table over the axes for quantities qs -> (values, stderr, metadata) with channels
     last when there are several quantities or an RGB model's one (R, G, B)."""
-    from .core import albedo_table
     names = [a["name"] for a in axl]
     kc = ["_kc" in q for q in qs]
     if any(kc):
@@ -111,8 +96,6 @@ def _run_kc(model, axl, q, fixed, **kw):
     (``clbrdf.core.fresnel_avg``). E_kc_avg is the same with E_F_avg and E_avg for E_F and E.
     The stderr adds the three estimates' in quadrature (first order; E_F and E share seeds and
     correlate positively, so it is an upper bound)."""
-    from .axes import check_form, evaluated
-    from .core import Model, fresnel_avg
     avg = q.endswith("_avg")
     plain = "E_avg" if avg else "E"
     fixed = dict(fixed or {})
@@ -162,8 +145,6 @@ def compute_table(model: str, name: str, quantity, axes: list, *, fixed=None, va
     the largest difference from the table's own lookup there (interpolation and encoding error,
     plus both estimates' noise; at most CHECK_SAMPLES samples per midpoint) in
     ``meta["interpolation"]``."""
-    from .axes import check_form, midpoints, parse_axis
-    from .table import Table
     qs = _quantities(quantity)
     if encoding not in ENCODINGS:
         raise ParameterError(f"encoding={encoding!r} is not valid: choose one of "
@@ -234,9 +215,6 @@ def table_config(lay: dict, tab: dict) -> tuple:
 def _fresnel_table(model, name, qs, axl, fixed, value_range, encoding, layout, kw):
     """F_avg over axes of Fresnel parameters (``clbrdf.core.fresnel_avg``: deterministic, the
     kernel's own F; stderr 0)."""
-    from .axes import check_form, evaluated
-    from .core import fresnel_avg
-    from .table import Table
     axl = [check_form(a) for a in axl]
     bad = [a["name"] for a in axl if a["name"] not in ("f0", "f90", "eta", "k")]
     if bad:
@@ -293,7 +271,6 @@ def layout_table(lay: dict, tab: dict, *, layout: str | None = None, **kw):
         info.append({"channels": labels, "computed": t.meta.get("computed"),
                      "interpolation": t.meta.get("interpolation"),
                      "clamped_cells": t.meta.get("clamped_cells", 0)})
-    from .table import Table
     interp = [i["interpolation"] for i in info if i["interpolation"]]
     # every part's clamped cells (Filament's cloth channel clamps 448, its GGX channels none)
     meta = dict(base.meta, quantity=order, parts=info,
@@ -321,89 +298,4 @@ def make_layout(name: str, *, samples=None, estimator=None, progress=False, comm
                        "notes": lay.get("notes", ""),
                        "published_samples": lay.get("samples")})
         out[tab["name"]] = t
-    return out
-
-
-def _channel(t, label: str, coords: dict):
-    """Quantity ``label`` of table t at coords, from its channel ``label`` or ``1-label``; None
-    if t has neither."""
-    q = list(t.quantity)
-    for name, sign in ((label, 1), ("1-" + label, -1)):
-        if name in q:
-            v = np.asarray(t.lookup(**coords))
-            v = v if len(q) == 1 else v[..., q.index(name)]
-            return v if sign > 0 else 1 - v
-    return None
-
-
-def _reads(t, label: str) -> bool:
-    """Whether ``_read(t, label, ...)`` finds the quantity."""
-    q = set(t.quantity)
-    return bool({label, "1-" + label} & q) or (label == "E" and {"A", "B"} <= q)
-
-
-def _read(t, label: str, **coords):
-    """Quantity ``label`` (E or E_avg) of table t: its channel, or A + B for E (the split
-    tables of three.js and MaterialX)."""
-    v = _channel(t, label, coords)
-    return v if v is not None else _channel(t, "A", coords) + _channel(t, "B", coords)
-
-
-def _find(tables: dict, directional: bool):
-    """(table, read(r=..., [mu=...])) of E over (mu, r) -- or over (mu, alpha), alpha = r^2 --
-    or of E_avg over r (alpha): a channel E or 1 - E, or A + B; r axes first. (None, None) if
-    there is none."""
-    label = "E" if directional else "E_avg"
-    for roughness in ("r", "alpha"):
-        for t in tables.values():
-            if set(t.axis_names) == ({"mu", roughness} if directional else {roughness}) and \
-                    _reads(t, label):
-                def read(r, t=t, roughness=roughness, **coords):
-                    return _read(t, label, **{roughness: r if roughness == "r" else
-                                              np.square(r)}, **coords)
-                return t, read
-    return None, None
-
-
-def white_furnace(tables: dict, *, r=(0.1, 0.25, 0.5, 0.75, 1.0), mu=(0.05, 0.2, 0.5, 1.0),
-                  samples: int = 1 << 20, seed: int = 7, qmc: bool = True, **kw) -> dict:
-    """The white furnace of GGX energy compensation with these tables (a layout's E over
-    (mu, r) and, for Kulla-Conty, E_avg over r): the single-scattering albedo E_ss(mu, r)
-    estimated directly (``clbrdf.albedo``, the layout's model at alpha = r^2, Sobol points
-    unless qmc=False, independent of the table's) before compensation, and after:
-
-    - Turquin 2019 (Cycles, UE, Filament): f = f_ss / E_tab(mu_o), so E = E_ss / E_tab;
-    - Kulla & Conty 2017 (OSPRay, OpenPBR): f = f_ss + (1 - E_tab(mu_o)) (1 - E_tab(mu_i)) /
-      (pi (1 - E_avg_tab)), so E = E_ss + (1 - E_tab(mu_o)) 2 int (1 - E_tab(x)) x dx /
-      (1 - E_avg_tab), the integral by 64 Gauss-Legendre nodes of the table's lookup.
-
-    Both are 1 for a perfect table; what is left is the table's error (interpolation, noise)
-    and E_avg's consistency with E. Returns arrays over (r, mu) and the stderr of E_ss."""
-    import clbrdf
-    t, read = _find(tables, True)
-    if t is None:
-        raise ParameterError("white_furnace needs a table with E (a channel E or 1-E, or A and "
-                             "B) over the axes mu and r (or alpha)")
-    ta, read_avg = _find(tables, False)
-    comp = t.meta.get("computed", {})
-    fixed = {k: v for k, v in comp.get("options", {}).items()}
-    if "split" in comp:     # E of a split computation (and A + B) is E with F = 1
-        fixed["fresnel"] = "one"
-    R, MU = np.meshgrid(np.asarray(r, float), np.asarray(mu, float), indexing="ij")
-    m = clbrdf.Model(comp.get("model", "ggx"), alpha=R ** 2, **fixed,
-                     **{k: kw.pop(k) for k in ("device", "width", "precision") if k in kw})
-    d = clbrdf.albedo(m, MU, samples=samples, seed=seed, qmc=qmc, **kw)
-    e_tab = read(mu=MU, r=R)
-    out = {"r": R, "mu": MU, "E_ss": d.albedo, "E_ss_stderr": d.stderr, "E_table": e_tab,
-           "turquin": d.albedo / e_tab}
-    if ta is not None:
-        x, w = np.polynomial.legendre.leggauss(64)
-        x, w = (x + 1) / 2, w / 2
-        integral = np.stack([np.sum(w * (1 - read(mu=x, r=np.full_like(x, rv))) * x) * 2
-                             for rv in np.asarray(r, float)])[:, None]
-        e_avg = read_avg(r=R)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            norm = np.where(1 - e_avg > 0, integral / (1 - e_avg), 1.0)
-        out["E_avg_table"] = e_avg
-        out["kulla_conty"] = d.albedo + (1 - e_tab) * norm
     return out

@@ -29,9 +29,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats as sps
 
+from ..api.albedo import EPS, albedo, rounding_floor, unseen
+from ..api.model import Model
+from ..models import get_spec, presets
+from ..models.spec import MU_MIN, ParameterError
 from . import stats as S
-from .core import EPS, Model, albedo, rounding_floor, unseen
-from .spec import MU_MIN
 
 ALPHA = 1e-3              # family-wise significance of the statistical checks
 WEIGHT_RTOL = {"single": 1e-3, "double": 1e-8}
@@ -330,6 +332,7 @@ def check_chi2(m, samples, seed, out_dir=None):
 def _chi2_plots(r, panels, wo, out_dir, m):
     """Observed and expected counts per bin (PNG) and the worst bins (CSV)."""
     from pathlib import Path
+
     from matplotlib.figure import Figure
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -504,9 +507,6 @@ def configurations(name: str) -> list[tuple[str, dict]]:
     ``name``, drawn from its description: the defaults, RGB, each option value, each optional
     parameter added, up to three presets, and each parameter at the lo and hi edges of its range, alone or with the option value that makes it used (ids ``alpha=lo``; double
     precision is a keyword of its own)."""
-    from . import presets
-    from .models import get_spec
-    from .spec import ParameterError
     spec = get_spec(name)
     base, _ = spec.configure()
     opts = dict(base.options)

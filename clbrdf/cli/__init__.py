@@ -10,21 +10,59 @@ import argparse
 import contextlib
 import json
 import math
-import threading
 import os
 import re
 import shutil
 import sys
 import textwrap
+import threading
 import time
 import warnings
 from pathlib import Path
 
 import numpy as np
 
-from . import __version__
-from .device import NO_DEVICE_HELP, DeviceError
-from .spec import ParameterError
+from ..api.albedo import ESTIMATORS, albedo
+from ..api.model import PRECISIONS, Model
+from ..models import MODELS, get_spec, presets
+from ..models.spec import ParameterError, check_directions, check_int, check_mu
+from ..runtime import probe
+from ..runtime.device import (
+    NO_DEVICE_HELP,
+    DeviceError,
+    compiler_error,
+    get_device,
+    list_devices,
+    natural_width,
+    resolve_devices,
+    split_device,
+)
+from ..studies import accuracy, ladder, stability
+from ..studies.check import check
+from ..studies.cluster import connect
+from ..studies.furnace import white_furnace
+from ..studies.report import report
+from ..studies.sweep import open_sweep, sweep
+from ..studies.sweepjob import (
+    ERROR_RATE,
+    ESTIMATORS as SWEEP_ESTIMATORS,
+    MAX_GROWTH,
+    chunk_bounds,
+    make_job,
+)
+from ..tables import plain as tables
+from ..tables.axes import MAPPED, check_form, evaluated, parse_axis
+from ..tables.checkpoint import checkpoint
+from ..tables.compute import albedo_table
+from ..tables.layouts import (
+    compute_table,
+    get_layout,
+    layouts,
+    layouts as _layouts,
+    make_layout,
+)
+from ..tables.table import check_out, load_tables, save_tables
+from ..version import __version__
 
 EXIT_INPUT = 2
 EXIT_DEVICE = 3
@@ -128,7 +166,6 @@ def parse_list(text: str, name: str) -> np.ndarray:
 
 def _usable(device) -> None:
     """DeviceError unless the device's compiler works (one cached probe per device)."""
-    from .device import compiler_error
     info = device.info
     err = compiler_error((info.platform_index, info.device_index))
     if err is not None:
@@ -137,7 +174,6 @@ def _usable(device) -> None:
 
 
 def _model(name, args, params):
-    from .core import Model
     m = Model(name, precision=getattr(args, "precision", "single"), device=args.device,
               width=getattr(args, "width", None), preset=getattr(args, "preset", None), **params)
     _usable(m.device)
@@ -145,7 +181,6 @@ def _model(name, args, params):
 
 
 def _spec(name):
-    from .models import get_spec
     return get_spec(name)
 
 
@@ -156,8 +191,6 @@ def _kernel_state(info, run: bool):
     """(column text, note) of whether the device runs the kernels at its default width in single
     precision: ok W<width>, "width 1 only", FAILS, or untested (clbrdf.probe's cache; ``run``
     checks the untested)."""
-    from . import probe
-    from .device import natural_width
     w = natural_width(info, "single")
     look = probe.kernel_error if run else probe.cached
     err = look(info, w, "single")
@@ -172,7 +205,6 @@ def _kernel_state(info, run: bool):
 
 
 def cmd_devices(args) -> int:
-    from .device import compiler_error, get_device, list_devices
     devs = list_devices()
     if not devs:
         raise DeviceError(NO_DEVICE_HELP)
@@ -181,7 +213,6 @@ def cmd_devices(args) -> int:
         why = None
     except DeviceError as e:
         chosen, why = None, str(e)
-    from . import probe
     rows, kernel_notes = [], []
     for d in devs:
         err = compiler_error((d.platform_index, d.device_index))
@@ -223,7 +254,6 @@ def cmd_devices(args) -> int:
 
 
 def cmd_presets(args) -> int:
-    from . import presets
     summary = presets.summary()
     if args.model:
         _spec(args.model)
@@ -252,7 +282,6 @@ def cmd_presets(args) -> int:
 
 
 def cmd_models(args) -> int:
-    from .models import MODELS
     if args.presets:
         return cmd_presets(args)
     specs = [_spec(args.model)] if args.model else list(MODELS.values())
@@ -297,7 +326,6 @@ def cmd_models(args) -> int:
 
 
 def cmd_eval(args) -> int:
-    from .spec import check_directions
     spec = _spec(args.model)
     params = parse_params(spec, args.param)
     wi = check_directions("wi", parse_vector(args.wi, "wi"))
@@ -326,7 +354,6 @@ def _describe(d: dict) -> str:
 
 
 def cmd_albedo(args) -> int:
-    from .core import albedo
     spec = _spec(args.model)
     params = parse_params(spec, args.param)
     mu = parse_list(args.mu, "mu")
@@ -366,7 +393,6 @@ def cmd_albedo(args) -> int:
 
 
 def cmd_check(args) -> int:
-    from .check import check
     spec = _spec(args.model)
     params = parse_params(spec, args.param)
     out = None
@@ -375,7 +401,6 @@ def cmd_check(args) -> int:
         if out.exists() and not out.is_dir():
             raise ParameterError(f"--out {args.out!r} is a file; give a directory")
     m = _model(spec.name, args, params)
-    from .runtime import check_int
     check_int("samples", args.samples, 1024, 2**32 - 1, "[1024, 2^32)")
     r = check(m, samples=args.samples, seed=args.seed, out=out)
     if args.json:
@@ -391,8 +416,6 @@ def cmd_check(args) -> int:
 
 
 def cmd_furnace(args) -> int:
-    from .layouts import white_furnace
-    from .table import load_tables
     path = Path(args.file)
     if not path.is_file():
         raise ParameterError(f"FILE {args.file!r} does not exist")
@@ -415,7 +438,6 @@ def cmd_furnace(args) -> int:
 
 
 def cmd_layouts(args) -> int:
-    from .layouts import layouts
     all_ = layouts()
     if args.json:
         print(json.dumps(all_, indent=1))
@@ -436,7 +458,6 @@ def cmd_layouts(args) -> int:
 def _resumable(args, out: Path):
     """The table's computations checkpointed beside its first output (clbrdf.checkpoint), so
     that a killed run continues with --resume; the checkpoint goes once the files are written."""
-    from .checkpoint import checkpoint
     where = out.with_name(f".{out.name}.resume")
     job = {k: v for k, v in sorted(vars(args).items())
            if k not in ("resume", "argv", "func", "command") and not callable(v)}
@@ -452,8 +473,6 @@ def _resumable(args, out: Path):
 
 
 def _layout_table(args, outs) -> int:
-    from .layouts import get_layout, make_layout
-    from .table import check_out, save_tables
     cmd = " ".join(["clbrdf"] + [_quote(a) for a in args.argv])
     for o in outs:
         check_out(o)
@@ -489,8 +508,6 @@ def _layout_table(args, outs) -> int:
 
 def _table_axes_args(args, spec, params) -> dict:
     """--axis texts -> axis dicts, each checked against the model before any work."""
-    from .axes import MAPPED, check_form, evaluated, parse_axis
-    from .spec import check_mu
     axes = {}
     for text in args.axis:
         ax = parse_axis(text)
@@ -525,8 +542,6 @@ def _table_axes_args(args, spec, params) -> dict:
 
 
 def cmd_table(args) -> int:
-    from . import tables
-    from .core import albedo_table
     outs = [Path(o) for o in args.out]
     out = outs[0]
     if len(outs) > 1 and not (args.layout or all(o.suffix.lower() in (".h", ".exr", ".npz")
@@ -547,7 +562,6 @@ def cmd_table(args) -> int:
     params = parse_params(spec, args.param)
     lut = len(outs) > 1 or out.suffix.lower() in (".h", ".exr")
     if lut:
-        from .table import check_out
         for o in outs:
             check_out(o)
     else:
@@ -562,8 +576,6 @@ def cmd_table(args) -> int:
     why = _choose_estimator(args)
     cmd = _no_resume(" ".join(["clbrdf"] + [_quote(a) for a in args.argv]))
     if lut:
-        from .layouts import compute_table
-        from .table import save_tables
         if args.estimator == "quadrature":
             raise ParameterError("a .h or .exr table is a Monte Carlo estimate: --estimator "
                                  "quadrature writes .npz or .csv")
@@ -621,7 +633,6 @@ JOB_FLAGS = ("--param", "-p", "--axis", "--random", "--directions", "--samples",
 
 
 def cmd_sweep(args) -> int:
-    from .sweep import make_job, resolve_devices, split_device, sweep
     kw = {}
     if args.model is not None:
         spec = _spec(args.model)
@@ -645,11 +656,6 @@ def cmd_sweep(args) -> int:
             raise ParameterError("--split is for local devices, not with --cluster")
         if args.device and len(args.device) > 1:
             raise ParameterError("--cluster takes one --device selector (each worker's)")
-        try:
-            from .cluster import connect
-        except ImportError:
-            raise ParameterError("--cluster needs dask.distributed: pip install 'clbrdf[cluster]'") \
-                from None
         if args.model is not None:       # every argument checked before the cluster starts
             make_job(spec.name, device=None, **{**kw, "width": kw["width"] or 16})
         client = connect(args.cluster)
@@ -661,7 +667,6 @@ def cmd_sweep(args) -> int:
         if args.split is not None:
             devices = [s for d in devices for s in split_device(d, args.split)]
     t0 = time.perf_counter()
-    from .sweep import open_sweep, chunk_bounds
     try:
         s = sweep(spec.name if args.model else None, args.out, resume=args.resume,
                   device=devices, client=client, progress=not args.quiet,
@@ -715,8 +720,6 @@ def _sweep_text(s, summ, seconds=None) -> str:
 
 
 def cmd_report(args) -> int:
-    from .report import report
-    from .sweep import open_sweep
     s = open_sweep(args.store)
     if args.out:
         out = Path(args.out)
@@ -747,8 +750,6 @@ def _chart_job(args):
 
 
 def cmd_accuracy(args) -> int:
-    from . import accuracy
-    from .runtime import check_int
     names, out, command, precisions = _chart_job(args)
     check_int("max-log2-samples", args.max_log2_samples, 6, 30)
 
@@ -763,8 +764,6 @@ def cmd_accuracy(args) -> int:
 
 
 def cmd_stability(args) -> int:
-    from . import stability
-    from .runtime import check_int
     names, out, command, precisions = _chart_job(args)
     check_int("samples", args.samples, 1024, 1 << 24, "[1024, 2^24]")
     if args.before and not Path(args.before).is_file():
@@ -779,7 +778,6 @@ def cmd_stability(args) -> int:
 
 
 def cmd_simplest(args) -> int:
-    from . import ladder
     spec = _spec(args.model)
     params = parse_params(spec, args.param)
     if not math.isfinite(args.tolerance) or not 0 <= args.tolerance < 1e6:
@@ -805,7 +803,6 @@ def cmd_simplest(args) -> int:
 
 
 def cmd_ladder(args) -> int:
-    from . import ladder
     names, out, command, _ = _chart_job(args)
     for n in names or ():
         if n not in ladder.LADDER_CONFIGS:
@@ -866,15 +863,12 @@ def chart_args(p, default_out: str, models_help: str, line: str, precision: bool
                    help=f"output directory (default ./{default_out}; docs/{default_out} in the "
                         "repository)")
     if precision:
-        from .core import PRECISIONS
         p.add_argument("--precision", choices=PRECISIONS + ("both",), default="both",
                        help="kernel arithmetic (default both)")
     p.add_argument("--quiet", "-q", action="store_true", help=f"no line per {line}")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from .core import ESTIMATORS, PRECISIONS
-    from .models import MODELS
     top = _Parser(prog="clbrdf", description="Evaluate, sample and integrate BRDFs in bulk with "
                   "OpenCL kernels (PoCL on the CPU out of the box).",
                   epilog="Exit codes: 0 ok, 2 bad input, 3 no usable OpenCL device, 4 a check failed "
@@ -967,7 +961,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_albedo)
 
-    from .layouts import layouts as _layouts
     p = sub.add_parser("table", parents=[dev], help="albedo table over a grid, or a renderer's "
                        "tables (--layout), to .npz, .csv, .h or .exr",
                        description="E over the grid of the axes and E_avg = 2 int E(mu) mu dmu over "
@@ -1017,7 +1010,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_layouts)
 
-    from .sweep import ERROR_RATE, ESTIMATORS as SWEEP_ESTIMATORS, MAX_GROWTH
     p = sub.add_parser("sweep", help="energy-conservation sweep over many parameter points, "
                        "to a resumable zarr store",
                        description="At every point (a grid over the axes, or --random N "

@@ -14,7 +14,6 @@ once every file is written.
 from __future__ import annotations
 
 import contextlib
-import contextvars
 import copy
 import hashlib
 import json
@@ -24,16 +23,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .spec import ParameterError
+from ..models.spec import ParameterError
+from ..runtime.albedo import AlbedoPlan, run_albedo, using
+from ..runtime.launch import progress_bar
+from .outputs import lock_dir
 
 # samples per chunk: about 2 s of GGX on 2 cores (CLBRDF_CHUNK_SAMPLES sets another, for tests)
 CHUNK_SAMPLES = int(os.environ.get("CLBRDF_CHUNK_SAMPLES", 1 << 30))
-_current = contextvars.ContextVar("clbrdf_checkpoint", default=None)
-
-
-def current():
-    """The active Checkpoint, or None."""
-    return _current.get()
 
 
 def _digest(*arrays) -> str:
@@ -76,9 +72,8 @@ class Checkpoint:
         return i
 
     def run_albedo(self, m, shape, wo, *, estimator, samples, seed, qmc, progress):
-        """runtime.run_albedo over ``shape`` in chunks of flat points, each read from or written
+        """run_albedo over ``shape`` in chunks of flat points, each read from or written
         to the checkpoint."""
-        from . import runtime
         npts = math.prod(shape)
         wo = [np.broadcast_to(np.asarray(w, np.float64), shape).reshape(-1) for w in wo]
         dev = m.device.info
@@ -93,8 +88,8 @@ class Checkpoint:
               "chunk_points": max(1, CHUNK_SAMPLES // int(samples))}
         call = self._call(fp)
         per = fp["chunk_points"]
-        plan = runtime.AlbedoPlan(samples, qmc, m.width)
-        bar = runtime.progress_bar(npts * plan.samples, progress)
+        plan = AlbedoPlan(samples, qmc, m.width)
+        bar = progress_bar(npts * plan.samples, progress)
         ests, errs, seconds = [], [], 0.0
         for c, i0 in enumerate(range(0, npts, per)):
             i1 = min(npts, i0 + per)
@@ -105,7 +100,7 @@ class Checkpoint:
                 self.loaded += 1
             else:
                 sub = _take(m, shape, i0, i1)
-                e, s, plan, secs = runtime.run_albedo(
+                e, s, plan, secs = run_albedo(
                     sub, (i1 - i0,), [w[i0:i1] for w in wo], estimator=estimator,
                     samples=samples, seed=seed, qmc=qmc, progress=False, point0=i0)
                 seconds += secs
@@ -136,22 +131,6 @@ def _take(m, shape, i0, i1):
         a = np.broadcast_to(np.asarray(v), ps).reshape((-1,) + ps[len(shape):])
         sub.params[k] = np.ascontiguousarray(a[i0:i1])
     return sub
-
-
-def lock_dir(path: Path):
-    """An exclusive lock on a directory (a table's checkpoint, a sweep's store): flock on its
-    descriptor, released when the process ends however it ends; returns the descriptor to close,
-    or raises a ParameterError if another process holds it."""
-    import fcntl
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        os.close(fd)
-        raise ParameterError(f"another clbrdf process is computing into {str(path)!r} now (it "
-                             f"holds its lock): wait for it to finish, or write another output") \
-            from None
-    return fd
 
 
 @contextlib.contextmanager
@@ -195,10 +174,7 @@ def checkpoint(path, job: dict, *, resume: bool = False):
         else:
             _write_atomic(path / "job.json", lambda p: p.write_text(text))
         ck = Checkpoint(path)
-        token = _current.set(ck)
-        try:
+        with using(ck.run_albedo):
             yield ck
-        finally:
-            _current.reset(token)
     finally:
         os.close(fd)

@@ -44,6 +44,22 @@ from pathlib import Path
 
 import numpy as np
 
+from ..api.albedo import albedo
+from ..api.model import Model
+from ..api.useless import FLAGS, USELESS, Z_BIAS, read_csv, samplers, sweep_label
+from ..models import LAMBDA_TABLE_G1_ERROR, get_spec
+from ..models.spec import MU_MIN, ParameterError
+from ..ref import reference
+from ..tables.outputs import csv_text, write_together
+from .check import (
+    _floor,
+    _resolution,
+    _values,
+    check_finite,
+    check_nonnegative,
+    check_weight,
+)
+
 ROUGH = (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 1.0)
 SHAPE_P = (0.1, 0.2, 0.5, 1.0, 2.0, 3.5, 5.0)
 NEAR_ONE = (0.1, 0.5, 0.9, 1 - 1e-4, 1 - 1e-7, 1.0, 1 + 1e-7, 1 + 1e-4, 2.0, 10.0)
@@ -71,27 +87,12 @@ ESTIMATORS = ("uniform", "cosine", "brdf", "mis")
 SAMPLES = 1 << 16
 QUAD_MAX_EVALS = 1 << 20     # the quadrature's evaluations per cell at most
 SEED = 11
-Z_BIAS = 4.0
-USELESS = 1e-2          # relative efficiency below which an estimator is marked useless
 REF_TOL = 1e-8          # first reference tolerance; refined to REF_REL of the standard error
 REF_REL = 1e-3
 FIELDS = ("model", "sweep", "value", "mu", "estimator", "sampler", "precision", "E", "stderr",
           "E_ref", "ref_err", "z", "efficiency", "nonfinite", "biased", "useless",
           "precision_loss", "seconds", "ref_version")
 CHECK_FIELDS = ("model", "sweep", "value", "precision", "check", "passed", "statistic", "worst")
-FLAGS = ("nonfinite", "biased", "precision_loss", "useless")
-
-
-def sweep_label(names) -> str:
-    return "=".join(names) if names else "defaults"
-
-
-def samplers(name: str) -> tuple:
-    """The model's sampler choices, or ("-",) when it has one."""
-    from .models import get_spec
-    spec = get_spec(name)
-    opt = next((o for o in spec.options if o.name == "sampler"), None)
-    return tuple(opt.choices) if opt is not None and len(opt.choices) > 1 else ("-",)
 
 
 def _kw(names, value, sampler="-") -> dict:
@@ -105,7 +106,6 @@ def _ref_cell(args):
     """(E_ref, err) of one cell; the tolerance tightened to REF_REL of what 2^16 samples resolve
     (at least 1e-3 of E's own size) when the first pass is looser."""
     name, names, value, mu, samples = args
-    from .ref import reference
     r = reference(name, **_kw(names, value))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -123,7 +123,6 @@ def ref_version(name: str) -> str:
     it matches."""
     import hashlib
     import json
-    from .models import get_spec
     spec = get_spec(name)
     here = Path(__file__).parent
     files = dict.fromkeys([here / "quadrature.py", here / "ref" / "__init__.py",
@@ -159,8 +158,6 @@ def references(name: str, samples: int = SAMPLES, cache: dict | None = None,
 
 
 def _run_checks(name, names, value, precision):
-    from .check import _values, check_finite, check_nonnegative, check_weight
-    from .core import Model
     m = Model(name, precision=precision, **_kw(names, value))
     v = _values(m, SEED)
     return [check_finite(m, v), check_nonnegative(m, v), check_weight(m, v)]
@@ -169,9 +166,6 @@ def _run_checks(name, names, value, precision):
 def measure(name: str, refs: dict, *, samples: int = SAMPLES, precisions=("single", "double"),
             progress=None) -> tuple[list[dict], list[dict]]:
     """Rows of FIELDS (one per cell, estimator, sampler and precision) and of CHECK_FIELDS."""
-    from .check import _floor, _resolution
-    from .core import Model, albedo
-    from .spec import MU_MIN
     rows, checks = [], []
     for names, values in SWEEPS[name]:
         sweep = sweep_label(names)
@@ -249,8 +243,6 @@ def _quadrature_rows(name, names, vals, mus, prec, e_ref, r_err, eps_floor, swee
     its own error estimate (or the tolerance) plus what the Lambda tables allow (3 |dG1| E) and
     the reference's error; useless when it stopped short of the tolerance. Its efficiency is
     not comparable with Monte Carlo's (NaN)."""
-    from .core import Model, albedo
-    from .models import LAMBDA_TABLE_G1_ERROR
     m = Model(name, precision=prec, **_kw(names, vals[:, None] if names else None)) if names \
         else Model(name, precision=prec)
     with warnings.catch_warnings():
@@ -302,22 +294,11 @@ def _mark_precision_loss(rows):
 
 # ---- output
 
-def _read_csv(path) -> list[dict]:
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    for r in rows:
-        for k in ("value", "mu", "E", "stderr", "E_ref", "ref_err", "z", "efficiency", "seconds"):
-            r[k] = float(r[k])
-        for k in FLAGS:
-            r[k] = int(r[k])
-    return rows
-
-
 def ref_cache(path) -> dict:
     """{(model, sweep, value, mu): (E_ref, err)} from an earlier stability.csv, where its
     reference version is this code's."""
     try:
-        rows = _read_csv(path)
+        rows = read_csv(path)
     except (OSError, KeyError, ValueError):
         return {}
     return {(r["model"], r["sweep"], r["value"], r["mu"]): (r["E_ref"], r["ref_err"])
@@ -339,6 +320,7 @@ def figure(rows: list[dict], name: str):
     sampler; colour log10 relative efficiency, letters the failures (N non-finite, B biased,
     P precision loss in single), grey the cells the precision does not accept."""
     import textwrap
+
     import matplotlib
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.colors import Normalize
@@ -493,12 +475,9 @@ def stability_map(models=None, out="stability", *, samples: int = SAMPLES,
     """Measure and write stability.csv, checks.csv, MODEL.png and README.md to ``out`` (staged:
     a kill leaves the old files or the new ones). References are taken from ``out``'s earlier
     stability.csv where it has the cell. ``before``: an earlier stability.csv to compare with."""
-    from .models import get_spec
-    from .tables import csv_text, write_together
     names = [get_spec(n).name for n in (models or list(SWEEPS))]
     for n in names:
         if n not in SWEEPS:
-            from .spec import ParameterError
             raise ParameterError(f"model={n!r} has no sweep in clbrdf.stability.SWEEPS")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -515,14 +494,14 @@ def stability_map(models=None, out="stability", *, samples: int = SAMPLES,
         plot(rows, charts[name], name)
         all_rows += rows
         all_checks += checks
-    kept = [r for r in _read_csv(out / "stability.csv") if r["model"] not in names] \
+    kept = [r for r in read_csv(out / "stability.csv") if r["model"] not in names] \
         if (out / "stability.csv").exists() else []
     kept_checks = []
     if (out / "checks.csv").exists():
         with open(out / "checks.csv", newline="") as f:
             kept_checks = [c for c in csv.DictReader(f) if c["model"] not in names]
     all_checks = kept_checks + all_checks
-    before_rows = _read_csv(before) if before else None
+    before_rows = read_csv(before) if before else None
     if before_rows:
         _mark_precision_loss(before_rows)        # the rule of this code, for comparison
     write_together({**{out / f"{n}.png": png.getvalue() for n, png in charts.items()},
@@ -535,110 +514,3 @@ def stability_map(models=None, out="stability", *, samples: int = SAMPLES,
 
 
 # ---- warnings from the shipped map
-
-MAP = Path(__file__).parent / "data" / "stability.csv"
-
-
-_BEST = {}     # (model, precision, sweep, value, mu) -> the map's row of the best estimator
-
-
-@lru_cache(maxsize=1)
-def _shipped() -> dict:
-    """{(model, estimator, sampler, precision): [(names, values, mus, efficiency grid)]}"""
-    if not MAP.exists():
-        return {}
-    out = {}
-    rows = _read_csv(MAP)
-    for r in rows:
-        if r["efficiency"] == 1.0:
-            _BEST[(r["model"], r["precision"], r["sweep"], r["value"], r["mu"])] = r
-    for r in rows:
-        out.setdefault((r["model"], r["estimator"], r["sampler"], r["precision"], r["sweep"]),
-                       {})[(r["value"], r["mu"])] = (r["efficiency"], r["biased"] or
-                                                     r["nonfinite"], r["z"])
-    grids = {}
-    for (model, est, smp, prec, sweep), cells in out.items():
-        values = np.array(sorted({v for v, _ in cells}))
-        mus = np.array(sorted({m for _, m in cells}))
-        g = np.full((len(values), len(mus), 3), np.nan)    # efficiency, biased, z
-        for (v, m), e in cells.items():
-            g[np.searchsorted(values, v), np.searchsorted(mus, m)] = e
-        names = () if sweep == "defaults" else tuple(sweep.split("="))
-        grids.setdefault((model, est, smp, prec), []).append((names, values, mus, g))
-    return grids
-
-
-def _nearest(grid_values, x, log):
-    """Index of the nearest grid value (in log where all are positive)."""
-    gv = np.asarray(grid_values, float)
-    if log and gv.min() > 0:
-        d = np.abs(np.log(gv)[None, :] - np.log(np.maximum(x, gv.min() * 1e-3))[:, None])
-    else:
-        d = np.abs(gv[None, :] - x[:, None])
-    return np.argmin(d, axis=1)
-
-
-def useless_cells(m, mu, estimator: str):
-    """Where the shipped map marks ``estimator`` useless or biased for model ``m`` at the
-    nearest swept value of each swept parameter (the other parameters as given) and the nearest
-    mu: (fraction of points, worst cell's efficiency, its z, an example), or None."""
-    if estimator not in ESTIMATORS:
-        return None
-    smp = m.options.get("sampler", "-") if estimator in ("brdf", "mis") else "-"
-    if smp != "-" and samplers(m.name) == ("-",):
-        smp = "-"
-    grids = _shipped().get((m.name, estimator, smp, m.precision))
-    if not grids:
-        return None
-    mu = np.asarray(mu, float)
-    worst, example, bad_any = None, None, None
-    for names, values, mus, g in grids:
-        if names and not all(n in m.params for n in names):
-            continue
-        x = np.asarray(m.params[names[0]], float) if names else np.zeros(())
-        if names and m.channels > 1 and names[0] in m.config.spectral:
-            x = x[..., 0]
-        xb, mb = (a.ravel() for a in np.broadcast_arrays(x, mu))
-        cell = g[_nearest(values, xb, True), _nearest(mus, mb, True)]
-        eff = np.nan_to_num(cell[:, 0], nan=1.0)
-        bad = (eff < USELESS) | (np.nan_to_num(cell[:, 1]) > 0)
-        bad_any = bad if bad_any is None or bad_any.shape != bad.shape else bad_any | bad
-        if bad.any():
-            k = int(np.argmax(np.where(bad, -eff + cell[:, 1], -np.inf)))
-            if worst is None or eff[k] < worst[0]:
-                best = _BEST.get((m.name, m.precision, sweep_label(names),
-                                  float(values[_nearest(values, xb[k:k + 1], True)[0]]),
-                                  float(mus[_nearest(mus, mb[k:k + 1], True)[0]])))
-                worst = (float(eff[k]), float(cell[k, 2]), best)
-                example = (f"{sweep_label(names)}={xb[k]:.3g}, " if names else "") + \
-                    f"mu={mb[k]:.3g}"
-    if example is None:
-        return None
-    return float(np.mean(bad_any)), worst[0], worst[1], worst[2], example
-
-
-def warn_if_useless(m, mu, estimator: str, stacklevel: int = 3):
-    hit = useless_cells(m, mu, estimator)
-    if hit is None:
-        return
-    frac, eff, z, best, example = hit
-    why = (f"efficiency {eff:.1g} of the best estimator there" if eff < USELESS else
-           "no estimator is efficient there")
-    if z > Z_BIAS:
-        why += f", and the map's estimate was {z:.3g} standard errors from the reference"
-    if best is not None and not best["biased"]:
-        use = f"Use {best['estimator']!r}" + (f" with sampler={best['sampler']!r}"
-                                               if best["sampler"] != "-" else "")
-    else:
-        use = ("Every Monte Carlo estimator was biased there at the map's 2^16 samples: use "
-               "estimator='quadrature' and check its error estimate")
-    warnings.warn(f"estimator={estimator!r} is marked useless by the stability map for "
-                  f"{m.name} at {frac:.0%} of these points (e.g. {example}: {why}; the map "
-                  f"ships in clbrdf/data/stability.csv and `clbrdf stability` remakes it); its "
-                  f"estimates are unreliable there and their reported error, which allows for "
-                  f"what the samples cannot see, may be far larger than E. {use}.",
-                  UselessEstimatorWarning, stacklevel=stacklevel)
-
-
-class UselessEstimatorWarning(UserWarning):
-    """An albedo estimator asked for where the stability map marks it useless."""

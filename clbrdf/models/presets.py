@@ -18,6 +18,7 @@ from functools import lru_cache
 from importlib import resources
 from pathlib import Path
 
+from .. import models
 from .spec import ParameterError
 
 ATTRIBUTION = {
@@ -119,7 +120,6 @@ def sources() -> dict[str, list[tuple[str, object]]]:
     """Model name -> [(fit file, to_params)], from the model modules' PRESETS."""
     import importlib
     import pkgutil
-    from . import models
     out: dict[str, list] = {}
     for info in pkgutil.iter_modules(models.__path__):
         mod = importlib.import_module(f"{models.__name__}.{info.name}")

@@ -213,3 +213,16 @@ def check_mu(mu, precision: str = "double") -> np.ndarray:
         raise ParameterError(f"mu={float(v)!r} is out of range: valid mu = cos(theta_o) is in "
                              f"[{lo:g}, 1] in {precision} precision (a direction above the horizon)")
     return mu
+
+
+def check_int(name: str, value, lo: int, hi: int, text: str | None = None) -> int:
+    """An integer in [lo, hi]: 3 and 3.0 are accepted, 1.5, True, '3' and NaN are not."""
+    ok = isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
+    if not ok and isinstance(value, (float, np.floating)) and float(value).is_integer():
+        value, ok = int(value), True
+    rng = text or f"[{lo}, {hi}]"
+    if not ok:
+        raise ParameterError(f"{name}={value!r} is not valid: {name} must be an integer in {rng}")
+    if not lo <= int(value) <= hi:
+        raise ParameterError(f"{name}={int(value)} is out of range: valid {name} is in {rng}")
+    return int(value)

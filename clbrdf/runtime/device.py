@@ -16,6 +16,8 @@ import re
 from dataclasses import dataclass
 from functools import lru_cache
 
+from ..models.spec import ParameterError, check_int
+
 NO_DEVICE_HELP = (
     "No working OpenCL device found. clbrdf runs on the CPU through PoCL: "
     "pip install 'pyopencl[pocl]' gives one without root; where its compiler (LLVM 14) does not "
@@ -121,7 +123,6 @@ def _pick(selector: str | None):
     if not devs:
         raise DeviceError(NO_DEVICE_HELP)
     if isinstance(selector, str) and not selector.strip():
-        from .spec import ParameterError
         valid = ", ".join(f"{i.selector} ({i.name})" for i, _ in devs)
         raise ParameterError(f"device={selector!r} is empty: give P:D or a part of a device's or "
                              f"platform's name; valid: {valid}")
@@ -178,7 +179,6 @@ class Device:
     def default_width(self, precision: str) -> int:
         env = os.environ.get("CLBRDF_WIDTH")
         if env:
-            from .spec import ParameterError
             if env.strip() not in ("1", "2", "4", "8", "16"):
                 raise ParameterError(f"environment variable CLBRDF_WIDTH={env!r} is not valid: "
                                      f"choose one of 1, 2, 4, 8, 16 (lanes per work-item)")
@@ -203,3 +203,31 @@ def get_device(selector: str | Device | None = None) -> Device:
         return selector
     info, _ = _pick(selector)
     return _device_for((info.platform_index, info.device_index))
+
+
+def resolve_devices(device) -> list:
+    """A selector, a Device, or a list of them -> Device objects; a device named twice gets a
+    second context and queue of its own (two contexts share its compute units)."""
+    if device is None or isinstance(device, (str, int)) or hasattr(device, "context"):
+        return [get_device(device)]
+    out = []
+    for d in device:
+        d = d if hasattr(d, "context") else get_device(d)
+        out.append(Device(d.info, d.cl_device) if any(o is d for o in out) else d)
+    return out
+
+
+def split_device(device, parts: int) -> list:
+    """``parts`` sub-devices of equal compute units by OpenCL device fission (PoCL CPUs support
+    it), each a Device with its own context and queue."""
+    import pyopencl as cl
+    device = get_device(device) if not hasattr(device, "context") else device
+    cu = device.cl_device.max_compute_units
+    parts = check_int("split", parts, 1, max(1, cu), f"[1, {cu} compute units]")
+    try:
+        subs = device.cl_device.create_sub_devices(
+            [cl.device_partition_property.EQUALLY, cu // parts])[:parts]
+    except cl.Error as e:
+        raise ParameterError(f"split={parts}: {device.info.name} cannot be split by device "
+                             f"fission ({e})") from None
+    return [Device(device.info, d) for d in subs]

@@ -49,6 +49,12 @@ from pathlib import Path
 
 import numpy as np
 
+from ..api.albedo import albedo
+from ..api.model import Model
+from ..models import get_spec
+from ..models.spec import ParameterError
+from ..tables.outputs import csv_text, write_together
+
 ALBEDO_MUS = (0.02, 0.1, 0.25, 0.5, 0.75, 1.0)
 PAIR_MUS = (0.02, 0.1, 0.3, 0.5, 0.7, 0.9, 1.0)
 PAIR_PHIS = (0.0, 0.5 * np.pi, np.pi, 1.25 * np.pi)
@@ -101,7 +107,6 @@ def _plain(kw):
 def full_config(name: str, **params) -> tuple[str, dict]:
     """(model name, options, every used parameter and ``channels``) of a configuration as
     given (a preset's values included)."""
-    from .core import Model
     m = Model(name, **params)
     return m.name, {**m.options, **m.params, "channels": m.channels}
 
@@ -207,8 +212,6 @@ def variants(name: str, kw: dict, precisions=("double", "single")) -> list[Varia
             for l2, n2, k2 in rung(n, k):
                 grown.append((l2 if label == "full" else f"{label}, {l2}", n2, k2))
         combos += grown
-    from .models import get_spec
-    from .spec import ParameterError
     out = []
     for label, n, k in combos:
         try:
@@ -238,7 +241,6 @@ def pairs():
 
 
 def _model(v: Variant, device=None):
-    from .core import Model
     return Model(v.name, precision=v.precision, device=device, width=v.width, **v.kw)
 
 
@@ -254,13 +256,11 @@ def _median_time(fn) -> float:
 
 def _check_metric(metric):
     if metric not in METRICS:
-        from .spec import ParameterError
         raise ParameterError(f"metric={metric!r} is not valid: choose one of {', '.join(METRICS)}")
 
 
 def measure_errors(vs: list[Variant], metric: str, device=None) -> list[Variant]:
     """Fill in each variant's error against vs[0], the full configuration in double."""
-    from .core import albedo
     _check_metric(metric)
     wo, wi = pairs()
     ref = None
@@ -285,7 +285,6 @@ def measure_errors(vs: list[Variant], metric: str, device=None) -> list[Variant]
 def measure_speed(vs: list[Variant], metric: str, device=None) -> list[Variant]:
     """Fill in evaluations and albedo samples per second, and the speed-up over vs[0] for the
     metric's operation (value: eval, albedo: the brdf estimator)."""
-    from .core import albedo
     _check_metric(metric)
     rng = np.random.default_rng(3)
     bwo = _dir(rng.uniform(0.01, 1, EVAL_PAIRS), rng.uniform(0, 2 * np.pi, EVAL_PAIRS))
@@ -337,7 +336,6 @@ def simplest(model: str, tolerance: float, metric: str = "value", *, device=None
     """The cheapest variant of a configuration whose error against the full configuration (in
     double precision) is at most ``tolerance`` (relative; ``metric`` ``value``: f over a grid
     of direction pairs, ``albedo``: E over ALBEDO_MUS), with every candidate measured."""
-    from .spec import ParameterError
     if isinstance(tolerance, bool) or not isinstance(tolerance, (int, float)) or \
             not 0 <= float(tolerance) < 1e6:
         raise ParameterError(f"tolerance={tolerance!r} is out of range: valid tolerance is in "
@@ -466,7 +464,6 @@ def chart(models=None, out="ladder", *, device=None, command="clbrdf.ladder.char
           progress=None) -> Path:
     """Measure the ladder of each model at LADDER_CONFIGS and write ladder.csv, MODEL.png and
     README.md to ``out`` (staged: a kill leaves the old files or the new ones)."""
-    from .tables import csv_text, write_together
     names = list(models or LADDER_CONFIGS)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

@@ -8,8 +8,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .axes import unwarp, warp
-from .sweep import GAINS, NOT_DONE, VERDICTS, Sweep, point_values
+from ..tables.axes import unwarp, warp
+from .sweep import Sweep
+from .sweepjob import GAINS, NOT_DONE, VERDICTS, point_values
 
 BINS = 40            # cells per axis of a map of random points
 WORST = 10

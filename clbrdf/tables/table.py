@@ -25,10 +25,33 @@ from pathlib import Path
 
 import numpy as np
 
-from .spec import ParameterError
+from ..models.spec import ParameterError
+from .axes import unwarp
+from .cheader import c_header
+from .outputs import _tmp_prefix, remove_stale, write_together
+from .plain import check_output
 
 FORMAT = "clbrdf-tables/1"
 SUFFIXES = (".npz", ".h", ".exr")
+ENCODINGS = ("float32", "float16", "unorm16")
+
+
+def encode(values: np.ndarray, encoding: str) -> np.ndarray:
+    """The consumer's stored form of values in [0, 1] (float16 and unorm16 round to nearest)."""
+    if encoding == "float32":
+        return values.astype(np.float32)
+    if encoding == "float16":
+        return values.astype(np.float16)
+    if encoding == "unorm16":
+        return np.round(np.clip(values, 0, 1) * 65535).astype(np.uint16)
+    raise ParameterError(f"encoding={encoding!r} is not valid: choose one of {', '.join(ENCODINGS)}")
+
+
+def decode(raw: np.ndarray, encoding: str) -> np.ndarray:
+    """What the consumer reads from the stored form, as float64."""
+    if encoding == "unorm16":
+        return raw.astype(np.float64) / 65535
+    return raw.astype(np.float64)
 
 
 @dataclass
@@ -44,7 +67,6 @@ class Table:
     @property
     def values(self) -> np.ndarray:
         """What the consumer reads (decoded, float64)."""
-        from .layouts import decode
         return decode(self.raw, self.encoding)
 
     @property
@@ -57,7 +79,6 @@ class Table:
 
     def index(self, axis: int, x) -> np.ndarray:
         """The continuous, clamped index of coordinate x on axis ``axis``."""
-        from .axes import unwarp
         a = self.axes[axis]
         n = len(a["values"])
         x = np.asarray(x, dtype=np.float64)
@@ -206,7 +227,6 @@ def _exr_bytes(tables: dict, path: Path) -> bytes:
         parts.append(OpenEXR.Part(header, chans, name))
     # OpenEXR writes to a path: a temporary name beside the target (.NAME.PID.*.tmp, which a
     # later write removes if this process was killed: tables.remove_stale), read back as bytes
-    from .tables import _tmp_prefix, remove_stale
     remove_stale(path)
     tmp = path.with_name(_tmp_prefix(path) + "exr-staging.tmp")
     try:
@@ -218,7 +238,6 @@ def _exr_bytes(tables: dict, path: Path) -> bytes:
 
 def _load_exr(path) -> dict:
     OpenEXR = _openexr()
-    from .layouts import encode
     out = {}
     with OpenEXR.File(str(path), separate_channels=True) as f:
         for part in f.parts:
@@ -242,7 +261,6 @@ def _load_exr(path) -> dict:
 
 def check_out(out) -> Path:
     """Before any work: a known suffix, an existing directory that takes new files."""
-    from .tables import check_output
     out = Path(out)
     if out.suffix.lower() not in SUFFIXES:
         raise ParameterError(f"--out {str(out)!r}: unknown suffix {out.suffix!r}: these tables "
@@ -262,13 +280,11 @@ def check_out(out) -> Path:
 
 def save_tables(tables: dict, out, *, prefix: str = "clbrdf") -> list:
     """Write {name: Table} to ``out`` (.npz, .h or .exr, module docstring); returns the paths."""
-    from .tables import write_together
     out = check_out(out)
     suffix = out.suffix.lower()
     if suffix == ".npz":
         data = _npz_bytes(tables)
     elif suffix == ".h":
-        from .export import c_header
         data = c_header(tables, prefix=prefix, guard=out.name)
     else:
         data = _exr_bytes(tables, out)

@@ -6,7 +6,7 @@ timeout: it builds the GGX albedo program at the width asked and compares E(mu =
 float64 reference. Results are cached on disk per device, driver, width, precision and kernel
 sources (``CLBRDF_CACHE_DIR``, else ``$XDG_CACHE_HOME/clbrdf`` or ``~/.cache/clbrdf``).
 
-``python -m clbrdf.probe P:D WIDTH PRECISION`` is the child.
+``python -m clbrdf.runtime.probe_child P:D WIDTH PRECISION`` is the child.
 """
 from __future__ import annotations
 
@@ -17,6 +17,9 @@ import subprocess
 import sys
 from functools import lru_cache
 from pathlib import Path
+
+from ..version import __version__
+from .build import kernel_dir
 
 TIMEOUT = 150                   # seconds: a good device builds and runs the check in a few
 CHECK = {"alpha": 0.5, "mu": 0.5, "samples": 1 << 12}
@@ -31,8 +34,6 @@ def cache_file() -> Path:
 
 @lru_cache(maxsize=None)
 def _sources_digest() -> str:
-    from . import __version__
-    from .build import kernel_dir
     h = hashlib.sha256(__version__.encode())
     for p in sorted(kernel_dir().glob("*")):
         if p.is_file() and p.suffix in (".h", ".cl"):
@@ -89,7 +90,7 @@ def kernel_error(info, width: int, precision: str) -> str | None:
     env = dict(os.environ, CLBRDF_IN_PROBE="1")
     env.pop("CLBRDF_WIDTH", None)
     try:
-        r = subprocess.run([sys.executable, "-m", "clbrdf.probe", info.selector, str(width),
+        r = subprocess.run([sys.executable, "-m", "clbrdf.runtime.probe_child", info.selector, str(width),
                             precision], env=env, capture_output=True, text=True,
                            timeout=TIMEOUT)
         if r.returncode == 0 and r.stdout.strip().startswith("ok"):
@@ -108,23 +109,3 @@ def kernel_error(info, width: int, precision: str) -> str | None:
     _session[key] = err
     _write_cache(key, err)
     return err
-
-
-def main(argv) -> int:
-    selector, width, precision = argv[0], int(argv[1]), argv[2]
-    import numpy as np
-    from .core import Model, albedo
-    from .ref import reference
-    m = Model("ggx", alpha=CHECK["alpha"], device=selector, width=width, precision=precision)
-    r = albedo(m, CHECK["mu"], samples=CHECK["samples"], qmc=True)
-    want = float(reference("ggx", alpha=CHECK["alpha"]).albedo(CHECK["mu"])[0])
-    got = float(np.asarray(r.albedo))
-    if not abs(got - want) <= TOLERANCE:
-        print(f"error: E = {got!r} where the reference is {want!r}", file=sys.stderr)
-        return 1
-    print(f"ok {got!r} {want!r}")
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))

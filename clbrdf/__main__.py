@@ -1,0 +1,4 @@
+"""python -m clbrdf: the command line."""
+from .cli import entry
+
+entry()

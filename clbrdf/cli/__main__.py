@@ -1,0 +1,4 @@
+"""python -m clbrdf.cli: the command line."""
+from . import entry
+
+entry()

@@ -1,0 +1,251 @@
+"""The albedo driver: streams blocks of samples through the device and reduces them on the host.
+
+Memory stays flat in the number of samples per point: the host keeps three numbers per point,
+stream and channel, whatever the sample count, and a point with many samples is split into
+several launches (about ``LAUNCH_SECONDS`` each) so that progress and Ctrl-C answer quickly.
+The result does not depend on how the work is split: blocks are combined in double precision
+in one fixed order (block index within its stream), by sequential sums.
+
+``runner()`` is the driver the API calls: ``run_albedo``, or the one a ``using(runner)`` block
+installs (clbrdf.tables.checkpoint runs it chunk by chunk and saves each chunk).
+"""
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import math
+import time
+
+import numpy as np
+
+from ..models.spec import ParameterError
+from . import build
+from .launch import kernel, ndrange, ndrange_with, progress_bar, seed_words
+
+QMC_STREAMS = 16          # independent scrambles behind a quasi-Monte Carlo error estimate
+LAUNCH_SAMPLES = 1 << 30  # samples per kernel launch, at most (at least one block)
+FIRST_LAUNCH = 1 << 20    # samples in the first launch; later ones are sized from its speed
+LAUNCH_SECONDS = 0.25     # target duration of one launch
+LAUNCH_POINTS = 1 << 18   # points per probe launch (run_probe), at most
+
+
+class AlbedoPlan:
+    """How the samples of one point are cut: ``streams`` independent streams (16 scrambles with
+    QMC) of ``per_stream`` samples, each in ``bps`` blocks of ``block_len`` (the last may be
+    partial). A block holds ``lanes`` streams: 1 with Philox, whose block length is BLOCK or
+    fewer (a multiple of 2 W: a Philox call serves two samples) when a stream is shorter, so
+    that short streams waste no lanes; W with QMC (albedo_qmc: the lanes are W scrambles of the
+    same sample indices), whose block length is a power of two, at most BLOCK. A point has
+    ``groups`` = streams / lanes groups of ``bps`` blocks."""
+
+    def __init__(self, samples: int, qmc: bool, width: int):
+        self.streams = QMC_STREAMS if qmc else 1
+        self.per_stream = -(-samples // self.streams)
+        if self.per_stream < 2:
+            raise ParameterError(f"samples={samples} is out of range: each of the {self.streams} "
+                                 f"streams needs at least 2 samples")
+        if qmc:
+            self.lanes = width
+            self.block_len = min(build.BLOCK, 1 << (self.per_stream - 1).bit_length())
+        else:
+            self.lanes = 1
+            self.block_len = min(build.BLOCK, -(-self.per_stream // (2 * width)) * 2 * width)
+        self.groups = self.streams // self.lanes
+        self.bps = -(-self.per_stream // self.block_len)
+        self.blocks = self.groups * self.bps
+
+    def counts(self, j0: int, nb: int) -> np.ndarray:
+        """Samples in blocks j0 .. j0 + nb - 1 of a stream (only the last block may be short)."""
+        j = np.arange(j0, j0 + nb, dtype=np.float64)
+        return np.clip(self.per_stream - j * self.block_len, 0, self.block_len)
+
+    @property
+    def samples(self) -> int:
+        return self.per_stream * self.streams
+
+
+class _Reducer:
+    """Per (point, stream, channel): the shift C (the first estimate of the stream), and the
+    sequential sums S = sum (e - C) and T = sum (e - C)^2, from the blocks' K, D, Q (see
+    albedo_blocks in kernels/integrators.cl):
+        sum over a block of (e - C)   = D + n (K - C)
+        sum over a block of (e - C)^2 = Q + 2 (K - C) D + n (K - C)^2.
+    With QMC the error comes from the streams' means alone: T is not kept."""
+
+    def __init__(self, npts, plan: AlbedoPlan, nch):
+        shape = (npts, plan.streams, nch)
+        self.plan = plan
+        self.C = np.zeros(shape)
+        self.S = np.zeros(shape)
+        self.T = np.zeros(shape) if plan.streams == 1 else None
+
+    def add(self, points: slice, stream: slice, first_block: int, kdq: np.ndarray):
+        """kdq: (points, streams, blocks, channels, 3) for blocks first_block.. of these streams."""
+        K, D = kdq[..., 0].astype(np.float64), kdq[..., 1].astype(np.float64)
+        Q = None if self.T is None else kdq[..., 2].astype(np.float64)
+        if first_block == 0:
+            self.C[points, stream] = K[:, :, 0]
+            if K.shape[2] == 1:       # one block per stream: C = K, the sums are D and Q (+ 0.0
+                self.S[points, stream] = D[:, :, 0] + 0.0     # as 0 + D in the general case)
+                if self.T is not None:
+                    self.T[points, stream] = Q[:, :, 0] + 0.0
+                return
+        n = self.plan.counts(first_block, K.shape[2])[None, None, :, None]
+        dk = K - self.C[points, stream][:, :, None]
+        sums = [(self.S, D + n * dk)]
+        if self.T is not None:
+            sums.append((self.T, Q + 2 * dk * D + n * dk * dk))
+        for acc, t in sums:
+            seq = np.concatenate([acc[points, stream][:, :, None], t], axis=2)
+            acc[points, stream] = np.cumsum(seq, axis=2)[:, :, -1]    # sequential: split-independent
+
+    def result(self, qmc: bool):
+        n = self.plan.per_stream
+        means = self.C + self.S / n                      # (points, streams, channels)
+        if qmc:         # the spread of the scrambles' means (einsum: 6x faster than std here)
+            mean = means.mean(axis=1)
+            d = means - mean[:, None]
+            var = np.einsum("psc,psc->pc", d, d) / (self.plan.streams - 1)
+            return mean, np.sqrt(var / self.plan.streams)
+        var = np.maximum(self.T[:, 0] - self.S[:, 0] ** 2 / n, 0.0) / (n - 1)
+        return means[:, 0], np.sqrt(var / n)
+
+
+def _point_buffers(ctx, params_full, wo_full, a: int, k: int):
+    """Device copies of the parameter and wo blocks of points a .. a + k (a model without
+    parameters gets a placeholder buffer)."""
+    import pyopencl as cl
+    mf = cl.mem_flags
+    P = np.ascontiguousarray(params_full[:, a:a + k])
+    WO = np.ascontiguousarray(wo_full[:, a:a + k])
+    bp = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=P) if P.size else \
+        cl.Buffer(ctx, mf.READ_ONLY, 8)
+    return bp, cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=WO)
+
+
+def run_albedo(m, shape, wo_rows, *, estimator: str, samples: int, seed: int, qmc: bool,
+               progress: bool, point0: int = 0):
+    """E and its standard error at every point of ``shape`` (model parameters broadcast with the
+    outgoing directions ``wo_rows`` = [x, y, z]). Returns (E, stderr) of shape (points, channels),
+    the plan and the seconds spent. The random numbers of flat point i are keyed by (seed,
+    point0 + i): a caller that computes part of a larger set passes the part's first index."""
+    import pyopencl as cl
+    plan = AlbedoPlan(samples, qmc, m.width)
+    npts = math.prod(shape)
+    if not (0 <= point0 and point0 + npts <= 2**32):
+        raise ParameterError(f"point0={point0} with {npts} points: the generator keys points by "
+                             f"32-bit indices (point0 + points <= 2^32)")
+    nch = m.channels
+    prog = m.program(part="albedo", estimator=estimator, rng="sobol" if qmc else "philox")
+    kern = kernel(prog.program, "albedo_qmc" if qmc else "albedo_blocks")
+    lo, hi = seed_words(seed)
+    ctx, q = m.device.context, m.device.queue
+    mf = cl.mem_flags
+    params_full = m.param_block(shape, npts)
+    wo_full = m.soa(shape, wo_rows, npts)
+    red = _Reducer(npts, plan, nch)
+    bar = progress_bar(npts * plan.samples, progress)
+    budget = min(FIRST_LAUNCH, LAUNCH_SAMPLES)
+    t0 = time.perf_counter()
+    # one local size for every launch of the job (PoCL compiles a kernel per local size; the
+    # split into launches must not add compilations)
+    local = ndrange(npts * plan.blocks, m.device)[1]
+    L = plan.lanes
+    block_samples = plan.block_len * L
+    point, block = 0, 0            # next block to launch (block in the point's 0 .. blocks - 1)
+    while point < npts:
+        budget_blocks = max(1, budget // block_samples)
+        if block == 0 and budget_blocks >= plan.blocks:      # whole points
+            k = min(npts - point, budget_blocks // plan.blocks)
+            nb = plan.blocks
+        else:                                                # part of one point's group
+            k = 1
+            nb = min(budget_blocks, plan.bps - block % plan.bps)
+        bp, bw = _point_buffers(ctx, params_full, wo_full, point, k)
+        out = np.empty(k * nb * nch * 3 * L, dtype=m.dtype)
+        bo = cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes)
+        tl = time.perf_counter()
+        kern(q, *ndrange_with(k * nb, local), bp, prog.tables, bw, np.uint64(k), np.uint64(point0 + point),
+             np.uint32(block), np.uint32(nb), np.uint32(plan.per_stream), lo, hi,
+             np.uint32(plan.bps), np.uint32(plan.block_len), bo)
+        cl.enqueue_copy(q, out, bo)
+        q.finish()
+        dt = time.perf_counter() - tl
+        pts = slice(point, point + k)
+        # (points, groups, blocks, lanes, channels, 3) -> (points, streams, blocks, channels, 3)
+        ng = nb // plan.bps if nb == plan.blocks else 1
+        kdq = out.reshape(k, ng, nb // ng, nch, 3, L).transpose(0, 1, 5, 2, 3, 4)
+        kdq = kdq.reshape(k, ng * L, nb // ng, nch, 3)
+        if nb == plan.blocks:
+            red.add(pts, slice(None), 0, kdq)
+            point += k
+            done = k * plan.samples
+        else:
+            grp, j0 = divmod(block, plan.bps)
+            red.add(pts, slice(grp * L, grp * L + L), j0, kdq)
+            block += nb
+            done = int(plan.counts(j0, nb).sum()) * L
+            if block == plan.blocks:
+                point, block = point + 1, 0
+        bar.update(done)
+        launched = k * nb * block_samples
+        rate = launched / max(dt, 1e-6)
+        budget = int(min(LAUNCH_SAMPLES, max(block_samples, rate * LAUNCH_SECONDS)))
+    bar.close()
+    est, err = red.result(qmc)
+    return est, err, plan, time.perf_counter() - t0
+
+
+def run_probe(m, shape, wo_rows, *, estimator: str, qmc: bool):
+    """The largest and smallest weight of the estimator over its probes (albedo_probe in
+    kernels/integrators.cl) at every point of ``shape``: two arrays (points, channels). Runs in
+    the albedo program of the same estimator and generator (no other program), in launches
+    of at most LAUNCH_POINTS points."""
+    import pyopencl as cl
+    npts = math.prod(shape)
+    nch, W = m.channels, m.width
+    prog = m.program(part="albedo", estimator=estimator, rng="sobol" if qmc else "philox")
+    kern = kernel(prog.program, "albedo_probe")
+    ctx, q = m.device.context, m.device.queue
+    mf = cl.mem_flags
+    hi = np.empty((npts, nch))
+    lo = np.empty((npts, nch))
+    params_full = m.param_block(shape, npts)
+    wo_full = m.soa(shape, wo_rows, npts)
+    for a in range(0, npts, LAUNCH_POINTS):
+        k = min(npts - a, LAUNCH_POINTS)
+        bp, bw = _point_buffers(ctx, params_full, wo_full, a, k)
+        out = np.empty(k * nch * 2 * W, dtype=m.dtype)
+        bo = cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes)
+        # one local size on a CPU (PoCL compiles a kernel per local size): 1
+        geo = ndrange(k, m.device) if m.device.info.is_gpu else ndrange_with(k, (1,))
+        kern(q, *geo, bp, prog.tables, bw, np.uint64(k), bo)
+        cl.enqueue_copy(q, out, bo)
+        q.finish()
+        out = out.reshape(k, nch, 2, W).astype(np.float64)
+        hi[a:a + k] = out[:, :, 0].max(axis=-1)
+        lo[a:a + k] = out[:, :, 1].min(axis=-1)
+    return hi, lo
+
+
+
+# ---------------------------------------------------------------------------------------------
+
+
+_RUNNER: contextvars.ContextVar = contextvars.ContextVar("clbrdf_albedo_runner", default=None)
+
+
+def runner():
+    """The albedo driver in effect: ``run_albedo`` unless a ``using`` block installed another
+    with the same signature."""
+    return _RUNNER.get() or run_albedo
+
+
+@contextlib.contextmanager
+def using(run):
+    """Make ``run`` the albedo driver of the API's Monte Carlo calls inside the block."""
+    token = _RUNNER.set(run)
+    try:
+        yield run
+    finally:
+        _RUNNER.reset(token)
