@@ -134,7 +134,7 @@ def test_albedo_bit_identical_across_chunking_and_runs():
     b = clbrdf.albedo(m, 0.5, samples=50_000, seed=9)
     np.testing.assert_array_equal(a.albedo, b.albedo)
     # the same job split into launches of one block each (launch size is internal: force it)
-    from clbrdf import runtime
+    from clbrdf.runtime import albedo as runtime
     old = runtime.LAUNCH_SAMPLES
     runtime.LAUNCH_SAMPLES = 1
     try:

@@ -1,5 +1,5 @@
 """estimator='quadrature': deterministic adaptive Gauss-Legendre panels in the sampler's own unit
-square (kernels/integrators.cl, quadrature_panels; clbrdf/runtime.py, run_quadrature), against
+square (kernels/integrators.cl, quadrature_panels; clbrdf/runtime/quadrature.py, run_quadrature), against
 the float64 reference's independent quadrature (clbrdf.ref).
 
 Claim (README, docs/accuracy/quadrature.md): within tol (1e-6 single, 1e-7 double by default)
@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import clbrdf
-from clbrdf import runtime
+from clbrdf.runtime import quadrature as runtime
 from clbrdf.api.albedo import QUAD_TOL
 from clbrdf.models import LAMBDA_TABLE_G1_ERROR as TABLE_DG1, MODELS
 from clbrdf.ref import reference

@@ -9,6 +9,7 @@ import pytest
 from scipy import integrate, optimize
 
 from clbrdf.ref import microfacet as R
+from clbrdf.ref.quadrature import spherical
 
 DISTS = ("beckmann", "ggx")
 ROUGH = [(1e-3, 1e-3), (0.05, 0.05), (0.3, 0.3), (1.0, 1.0), (0.01, 1.0), (0.3, 0.06)]
@@ -38,7 +39,7 @@ def slope_normal(tx, ty):
 def theta_max_numeric(wo, phi_h):
     """Largest theta_h with reflect(wo, h).z >= 0 at azimuth phi_h, by root finding."""
     def wz(th):
-        return R.reflect(wo, R.spherical(th, phi_h))[2]
+        return R.reflect(wo, spherical(th, phi_h))[2]
     return optimize.brentq(wz, 0, np.pi / 2, xtol=1e-15) if wz(np.pi / 2) < 0 else np.pi / 2
 
 
@@ -62,7 +63,7 @@ def test_D_matches_P22(dist):
     rng = np.random.default_rng(0)
     th = rng.uniform(0, 1.5, 50)
     for a in (1e-3, 0.2, 1.0):
-        h = R.spherical(th, rng.uniform(0, 2 * np.pi, 50))
+        h = spherical(th, rng.uniform(0, 2 * np.pi, 50))
         want = P22(dist, np.tan(th) ** 2, a) / np.cos(th) ** 4
         np.testing.assert_allclose(R.D(dist, h, a, a), want, rtol=1e-12, atol=1e-300)
     assert R.D(dist, np.array([0.6, 0, -0.8]), 0.3, 0.3) == 0
@@ -93,7 +94,7 @@ def lambda_integral(dist, theta, phi, ax, ay):
 @pytest.mark.parametrize("ax,ay,phi", [(0.05, 0.05, 0.0), (0.5, 0.5, 0.0), (1.0, 1.0, 0.0),
                                        (0.1, 0.7, 0.4), (0.7, 0.1, 1.2)])
 def test_Lambda_matches_integral_definition(dist, theta, ax, ay, phi):
-    w = R.spherical(theta, phi)
+    w = spherical(theta, phi)
     want = lambda_integral(dist, theta, phi, ax, ay)
     assert R.Lambda(dist, w, ax, ay) == pytest.approx(want, rel=1e-7, abs=1e-12)
 
@@ -113,7 +114,7 @@ def test_visible_normals_normalised(dist, ax, ay, theta_o, phi_o):
     # integral G1(wo) max(0, wo.h) D(h) dw_h = cos_o. Slopes (ax r cos psi, ay r sin psi),
     # dw_h = cos^3 d^2t; wo.h > 0 <=> r < r_max = wz / k, k = ax wx cos psi + ay wy sin psi, where
     # k > 0. Fixed Gauss-Legendre in psi (split where k changes sign) and in r = tan(beta).
-    wo = R.spherical(theta_o, phi_o)
+    wo = spherical(theta_o, phi_o)
     psi0 = np.arctan2(-ax * wo[0], ay * wo[1])
     edges = psi0 + np.pi / 2 * np.arange(5)
     total = 0.0
@@ -228,7 +229,7 @@ def hemisphere_gl(g, n=800):
     Gauss-Legendre product rule in (theta, phi): for smooth integrands only."""
     th, wt = gl(0, np.pi / 2, n)
     ph, wp = gl(0, 2 * np.pi, n)
-    w = R.spherical(th[:, None], ph[None, :])
+    w = spherical(th[:, None], ph[None, :])
     return np.sum(g(w) * (np.sin(th) * wt)[:, None] * wp[None, :])
 
 
@@ -242,7 +243,7 @@ def halfvector_gl(g, wo, n=128):
         ph, wp = gl(phi_o + (k - 0.5) * np.pi / 2, phi_o + (k + 0.5) * np.pi / 2, n)
         for phi, w_phi in zip(ph, wp):
             th, wt = gl(0, theta_max_numeric(wo, phi), n)
-            total += w_phi * np.sum(g(R.spherical(th, phi)) * np.sin(th) * wt)
+            total += w_phi * np.sum(g(spherical(th, phi)) * np.sin(th) * wt)
     return total
 
 
@@ -301,7 +302,7 @@ def albedo_brute(model, mu, phi=0.0, **p):
     wo = R.direction(mu, phi)
 
     def inner(ph):
-        return quad(lambda th: R.eval(model, wo, R.spherical(th, ph), **p) * np.cos(th) * np.sin(th),
+        return quad(lambda th: R.eval(model, wo, spherical(th, ph), **p) * np.cos(th) * np.sin(th),
                     0, np.pi / 2, epsabs=1e-11)
     return sum(quad(inner, phi + k * np.pi / 2, phi + (k + 1) * np.pi / 2, epsabs=1e-11)
                for k in range(4))
@@ -343,7 +344,7 @@ def test_albedo_narrow_lobe_at_grazing():
 
         def g(lt):                   # lt = log tan theta_h
             th = np.arctan(np.exp(lt))
-            h = R.spherical(th, phi)
+            h = spherical(th, phi)
             wi = R.reflect(wo, h)
             jac = np.sin(th) * np.cos(th) ** 2 * np.exp(lt)   # d theta / d lt times sin theta
             return R.eval_specular(cfg, wo, wi) * max(wi[2], 0) * 4 * (wo @ h) * jac

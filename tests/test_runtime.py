@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import clbrdf
-from clbrdf import runtime
+from clbrdf.runtime import albedo as runtime
 from clbrdf.models.spec import MU_MIN
 
 
@@ -193,7 +193,7 @@ def test_a_device_that_aborts_at_width_16_runs_at_width_1(tmp_path, monkeypatch)
         pytest.skip("no PoCL 3.0 here")
     monkeypatch.setenv("CLBRDF_CACHE_DIR", str(tmp_path))
     monkeypatch.delenv("CLBRDF_WIDTH", raising=False)
-    with pytest.warns(clbrdf.runtime.WidthFallbackWarning, match="pocl-opencl-icd"):
+    with pytest.warns(clbrdf.WidthFallbackWarning, match="pocl-opencl-icd"):
         m = clbrdf.Model("ggx", alpha=0.5, device=old[0].selector)
     assert m.width == 1
     r = clbrdf.albedo(m, 0.5, samples=1 << 12, qmc=True)

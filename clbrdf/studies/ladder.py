@@ -292,7 +292,7 @@ def measure_speed(vs: list[Variant], metric: str, device=None) -> list[Variant]:
     amu = np.linspace(0.05, 1, ALBEDO_POINTS)
     for v in vs:
         m = _model(v, device)
-        launch, _ = m._batch_prepare("eval_batch", (EVAL_PAIRS,), [bwo.T, bwi.T], [m.channels])
+        launch, _ = m.batch_prepare("eval_batch", (EVAL_PAIRS,), [bwo.T, bwi.T], [m.channels])
         v.evals_per_s = EVAL_PAIRS * EVAL_LAUNCHES / _median_time(
             lambda: [launch() for _ in range(EVAL_LAUNCHES)])
         with warnings.catch_warnings():
