@@ -16,8 +16,9 @@ from .runtime.launch import WidthFallbackWarning
 from .studies.check import check
 from .studies.sweep import open_sweep, sweep
 from .tables.compute import TargetStderrWarning, albedo_table
+from .tables.files import save_tables
 from .tables.layouts import make_layout
-from .tables.table import Table, load_tables, save_tables
+from .tables.table import Table, load_tables
 from .version import __version__
 
 

@@ -8,6 +8,8 @@ import sys
 import numpy as np
 import pytest
 
+import clbrdf
+
 from clbrdf.ref import microfacet as R
 from cliutil import run_inprocess
 
@@ -160,13 +162,13 @@ def test_table_npz(tmp_path):
     r = ok(*TABLE_ARGS, "--out", out)
     assert "wrote" in r.stdout and "g.npz" in r.stdout and "E_avg" in r.stdout
     assert sorted(p.name for p in tmp_path.iterdir()) == ["g.npz", "g.png"]
-    z = np.load(out)
-    assert {"E", "E_stderr", "E_avg", "E_avg_stderr", "mu", "alpha", "metadata"} <= set(z.files)
+    z = clbrdf.Table.load(out)
+    assert {"E", "E_stderr", "E_avg", "E_avg_stderr", "mu", "alpha"} <= set(z.keys())
     assert z["E"].shape == z["E_stderr"].shape == (3, 4)
     assert z["E_avg"].shape == z["E_avg_stderr"].shape == (4,)
     np.testing.assert_allclose(z["mu"], [0.2, 0.6, 1.0])
     np.testing.assert_allclose(z["alpha"], np.geomspace(0.1, 0.7, 4))
-    meta = json.loads(str(z["metadata"]))
+    meta = z.computed
     for key in ("model", "fixed", "options", "estimator", "samples", "seed", "precision",
                 "version", "device"):
         assert key in meta, key
@@ -181,8 +183,8 @@ def test_table_csv(tmp_path):
     ok(*TABLE_ARGS, "--out", out)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["g.avg.csv", "g.csv", "g.png"]
     lines = out.read_text().splitlines()
-    assert lines[0].startswith("# ")
-    meta = json.loads(lines[0][2:])
+    assert lines[0].startswith("# clbrdf-tables/2 ")
+    meta = json.loads(lines[0].split(" ", 2)[2])["computed"]
     assert meta["model"] == "ggx" and meta["axes"] == ["mu", "alpha"]
     assert lines[1] == "mu,alpha,E,E_stderr"
     rows = np.array([[float(x) for x in ln.split(",")] for ln in lines[2:]])
@@ -198,9 +200,15 @@ def test_table_csv(tmp_path):
     check_reference(mu, alpha, E, S, arows[:, 1], arows[:, 2])
     # the same arguments give the same numbers in .npz
     ok(*TABLE_ARGS, "--out", tmp_path / "same.npz")
-    z = np.load(tmp_path / "same.npz")
+    z = clbrdf.Table.load(tmp_path / "same.npz")
     np.testing.assert_array_equal(z["E"], E)
     np.testing.assert_array_equal(z["E_avg"], arows[:, 1])
+    # and the .csv loads back to the same table
+    back = clbrdf.Table.load(out)
+    np.testing.assert_array_equal(back["E"], z["E"])
+    np.testing.assert_array_equal(back["E_avg_stderr"], z["E_avg_stderr"])
+    same = lambda m: {k: v for k, v in m.items() if k not in ("seconds", "command")}  # noqa: E731
+    assert same(back.computed) == same(z.computed)
 
 
 def test_table_target_stderr_out_of_reach_is_said(tmp_path):
@@ -208,16 +216,16 @@ def test_table_target_stderr_out_of_reach_is_said(tmp_path):
     stderr says how many cells stayed above the target, for E and E_avg, and what to raise."""
     r = ok("table", "ggx", "--axis", "mu=0.2:1:3", "--axis", "alpha=0.3:0.6:2", "--samples", 64,
            "--target-stderr", "1e-4", "--max-samples", 256, "--out", tmp_path / "t.npz")
-    assert "warning: target_stderr=0.0001 not reached in 6 of 6 cells at max_samples=256" \
+    assert "warning: --target-stderr=0.0001 not reached in 6 of 6 cells at --max-samples=256" \
         in r.stderr, r.stderr
-    assert "not reached in 2 of 2 averages" in r.stderr and "--max-samples" in r.stderr
-    assert int(np.load(tmp_path / "t.npz")["E_samples"].min()) == 256
+    assert "not reached in 2 of 2 averages" in r.stderr and "raise --max-samples" in r.stderr
+    assert int(clbrdf.Table.load(tmp_path / "t.npz")["E_samples"].min()) == 256
 
 
 def test_table_mu_only(tmp_path):
     r = ok("table", "lambert", "--axis", "mu=0.1:1:5", "--param", "kd=0.25", "--samples", 512,
            "--out", tmp_path / "l.npz")
-    z = np.load(tmp_path / "l.npz")
+    z = clbrdf.Table.load(tmp_path / "l.npz")
     assert z["E"].shape == (5,) and z["E_avg"].shape == ()
     np.testing.assert_allclose(z["E"], 0.25, atol=1e-6)
     np.testing.assert_allclose(z["E_avg"], 0.25, atol=1e-5)
@@ -301,21 +309,22 @@ def test_failure_keeps_existing_files(tmp_path):
 def test_write_failure_is_atomic(tmp_path, monkeypatch):
     """A failure while writing (here: in the chart) leaves every existing file as it was and no
     temporary file behind."""
-    from clbrdf import tables
-    table = {"mu": np.array([0.5, 1.0]), "E": np.array([0.9, 0.8]),
-             "E_stderr": np.array([0.01, 0.01]), "E_avg": np.array(0.85),
-             "E_avg_stderr": np.array(0.01), "metadata": json.dumps({"model": "ggx", "axes": ["mu"]})}
+    from clbrdf.tables import files
+    from clbrdf.tables.table import from_albedo
+    table = from_albedo({"mu": np.array([0.5, 1.0]), "E": np.array([0.9, 0.8]),
+                         "E_stderr": np.array([0.01, 0.01]), "E_avg": np.array(0.85),
+                         "E_avg_stderr": np.array(0.01)}, {"model": "ggx", "axes": ["mu"]})
     for suffix in (".npz", ".csv"):
         out = tmp_path / f"x{suffix}"
         out.write_text("old")
-        monkeypatch.setattr(tables, "plot_table", lambda *a, **k: 1 / 0)
+        monkeypatch.setattr(files, "figure_png", lambda *a, **k: 1 / 0)
         with pytest.raises(ZeroDivisionError):
-            tables.save_table(table, out)
+            files.save_tables(table, out)
         assert out.read_text() == "old"
         assert not (tmp_path / "x.png").exists() and not (tmp_path / "x.avg.csv").exists()
         assert [p.name for p in tmp_path.iterdir()] == [out.name]
         monkeypatch.undo()
-        written = tables.save_table(table, out)
+        written = files.save_tables(table, out)
         assert out in written and (tmp_path / "x.png").exists()
         assert out.read_text() != "old" if suffix == ".csv" else out.read_bytes()[:2] == b"PK"
         for p in tmp_path.iterdir():
@@ -351,7 +360,7 @@ def test_channels_param_makes_an_rgb_model(tmp_path):
     r = run_inprocess("table", "ggx", "-p", "channels=3", "--axis", "mu=0.5,1",
                       "--axis", "alpha=0.1,0.5", "-n", "256", "--out", tmp_path / "t.npz")
     assert r.returncode == 0, r.stderr
-    assert np.load(tmp_path / "t.npz")["E"].shape == (2, 2, 3)
+    assert clbrdf.Table.load(tmp_path / "t.npz")["E"].shape == (2, 2, 3)
     for bad, msg in (("channels=2", "channels is 1 or 3"), ("channels=x", "channels is 1 or 3")):
         r = run_inprocess("eval", "ggx", "-p", bad, "--wi", "0,0,1", "--wo", "0,0,1")
         assert r.returncode == 2 and msg in r.stderr, r.stderr

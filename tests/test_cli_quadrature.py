@@ -5,6 +5,8 @@ import json
 import numpy as np
 import pytest
 
+import clbrdf
+
 from clbrdf.ref import reference
 from cliutil import run_inprocess
 
@@ -39,8 +41,8 @@ def test_table_quadrature_metadata(tmp_path):
                       "--estimator", "quadrature", "--tol", "1e-5", "--out", out)
     assert r.returncode == 0, r.stderr
     assert "quadrature to tol 1e-05" in r.stdout and "max error" in r.stdout
-    z = np.load(out)
-    meta = json.loads(str(z["metadata"]))
+    z = clbrdf.Table.load(out)
+    meta = z.computed
     assert meta["estimator"] == "quadrature" and meta["tol"] == 1e-5 and meta["max_evals"] > 0
     assert np.all(z["E_stderr"] <= 1e-5)
     ref = reference("ggx", alpha=0.7)
@@ -81,5 +83,5 @@ def test_table_without_estimator_uses_the_recommended_one(tmp_path):
     assert r.returncode == 0, r.stderr
     assert "brdf + QMC" in r.stdout and "no --estimator" not in r.stdout
     assert "note: no --estimator: brdf with Sobol points" in r.stderr
-    meta = json.loads(str(np.load(out)["metadata"]))
+    meta = clbrdf.Table.load(out).computed
     assert meta["estimator"] == "brdf" and meta["qmc"] is True

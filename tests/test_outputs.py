@@ -10,7 +10,8 @@ import time
 import numpy as np
 import pytest
 
-from clbrdf import tables
+from clbrdf.tables import files, outputs
+from clbrdf.tables.table import from_albedo
 from cliutil import run_inprocess
 
 TABLE = ["table", "ggx", "--axis", "mu=0.1:1:4", "--axis", "alpha=0.1:1:3"]
@@ -22,10 +23,9 @@ def run(*args, **kw):
 
 
 def small_table():
-    return {"mu": np.array([0.5, 1.0]), "E": np.array([0.9, 0.8]),
-            "E_stderr": np.array([0.01, 0.01]), "E_avg": np.array(0.85),
-            "E_avg_stderr": np.array(0.01),
-            "metadata": json.dumps({"model": "ggx", "axes": ["mu"]})}
+    return from_albedo({"mu": np.array([0.5, 1.0]), "E": np.array([0.9, 0.8]),
+                        "E_stderr": np.array([0.01, 0.01]), "E_avg": np.array(0.85),
+                        "E_avg_stderr": np.array(0.01)}, {"model": "ggx", "axes": ["mu"]})
 
 
 @pytest.mark.parametrize("setup, out, words", [
@@ -64,9 +64,9 @@ def test_commit_restores_old_files_when_a_replace_fails(tmp_path, monkeypatch):
         if str(dst).endswith(".png") and ".tmp" not in str(dst):
             raise OSError(28, "No space left on device")
         return real(src, dst)
-    monkeypatch.setattr(tables.os, "replace", failing)
+    monkeypatch.setattr(outputs.os, "replace", failing)
     with pytest.raises(OSError):
-        tables.save_table(small_table(), out)
+        files.save_tables(small_table(), out)
     monkeypatch.undo()
     assert out.read_text() == "old data" and (tmp_path / "x.png").read_text() == "old chart"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["x.npz", "x.png"]
@@ -106,7 +106,7 @@ def test_stale_temporary_files_are_removed(tmp_path):
     stale.write_text("partial")
     live = tmp_path / f".x.npz.{os.getppid()}.abcd1234.tmp"
     live.write_text("someone else's")
-    tables.save_table(small_table(), out)
+    files.save_tables(small_table(), out)
     names = sorted(p.name for p in tmp_path.iterdir())
     assert stale.name not in names and live.name in names
     assert "x.npz" in names and "x.png" in names

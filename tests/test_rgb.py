@@ -99,7 +99,8 @@ def test_albedo_table_has_channel_axis():
     t = clbrdf.albedo_table("ggx", {"mu": [0.3, 1.0], "alpha": [0.2, 0.5]}, samples=2048,
                             channels=3, f0=F0)
     assert t["E"].shape == (2, 2, 3) and t["E_avg"].shape == (2, 3)
-    assert json.loads(t["metadata"])["axes"] == ["mu", "alpha", "channel"]
+    assert t.computed["axes"] == ["mu", "alpha", "channel"]
+    assert t.quantity == ["E.R", "E.G", "E.B"]
     # f0 = 0.95 reflects more than 0.04 at every point
     assert np.all(t["E"][..., 2] > t["E"][..., 0])
 

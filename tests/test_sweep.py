@@ -19,7 +19,7 @@ import clbrdf
 from clbrdf.studies.sweep import open_sweep, sweep
 from cliutil import run_inprocess
 
-from clbrdf.studies import sweep as sw, sweepjob as job  # noqa: E402
+from clbrdf.studies import sweep as sw, sweepjob as sj  # noqa: E402
 
 ARRAYS = ("E", "E_stderr", "samples", "E_max", "E_max_stderr", "E_max_dir", "E_avg",
           "E_avg_stderr", "verdict")
@@ -59,17 +59,17 @@ def test_lambert_closed_form_and_gauss_average(tmp_path):
     kd = np.array([0.1, 0.5, 0.9])[:, None]
     assert np.all(np.abs(E - kd) <= 5 * S)
     assert np.all(np.abs(s["E_avg"][:] - kd[:, 0]) <= 5 * s["E_avg_stderr"][:])
-    assert list(s["verdict"][:]) == [job.CONSERVES] * 3
+    assert list(s["verdict"][:]) == [sj.CONSERVES] * 3
 
 
 def test_verdicts_on_clear_cases(tmp_path):
     """ks scales GGX's specular albedo (at most 1 with F = 1): ks = 0.5 conserves, ks = 2 and a
     Lambertian kd = 1 plus a specular lobe gain energy."""
     s = sweep("ggx", tmp_path / "g.zarr", axes={"ks": [0.5, 2.0]}, alpha=0.3, samples=4096)
-    assert list(s["verdict"][:]) == [job.CONSERVES, job.GAINS]
+    assert list(s["verdict"][:]) == [sj.CONSERVES, sj.GAINS]
     s = sweep("ggx", tmp_path / "k.zarr", axes={"alpha": [0.2, 0.8]}, kd=1.0, ks=0.05,
               samples=4096)
-    assert list(s["verdict"][:]) == [job.GAINS, job.GAINS]
+    assert list(s["verdict"][:]) == [sj.GAINS, sj.GAINS]
 
 
 def test_error_rate_of_verdicts(tmp_path):
@@ -81,10 +81,10 @@ def test_error_rate_of_verdicts(tmp_path):
     s = sweep("lambert", tmp_path / "e.zarr", axes={"kd": np.linspace(0.9, 1.0, n)},
               estimator="uniform", samples=256, max_samples=256 * 16, error_rate=0.2, seed=5)
     v = s["verdict"][:]
-    wrong = int((v == job.GAINS).sum())
+    wrong = int((v == sj.GAINS).sum())
     assert wrong <= sst.binom.isf(1e-6, n, 0.2), wrong
     # the rule does decide: kd = 0.9 .. 0.925 conserves within the sample cap
-    assert np.mean(v[:n // 4] == job.CONSERVES) > 0.9
+    assert np.mean(v[:n // 4] == sj.CONSERVES) > 0.9
 
 
 def test_refinement_and_target_stderr(tmp_path):
@@ -140,9 +140,9 @@ def test_rgb_preset_per_channel(tmp_path):
 
 
 def test_anisotropic_models_get_azimuths(tmp_path):
-    job = job.make_job("ggx", axes={"alpha_x": [0.1, 0.5]}, alpha_y=0.2, samples=64)
+    job = sj.make_job("ggx", axes={"alpha_x": [0.1, 0.5]}, alpha_y=0.2, samples=64)
     assert job["directions"]["spec"] == "gauss:16x8"
-    assert job.make_job("ggx", axes={"alpha": [0.1]}, samples=64)["directions"]["spec"] == "gauss:32"
+    assert sj.make_job("ggx", axes={"alpha": [0.1]}, samples=64)["directions"]["spec"] == "gauss:32"
     w = np.asarray(job["directions"]["weight"])
     assert abs(w.sum() - 1) < 1e-12 and len(w) == 128        # E = 1 gives E_avg = 1
 
@@ -190,11 +190,11 @@ def test_bad_input_is_refused_before_any_work(tmp_path):
     cases = [(["ggx", "--axis", "beta=0:1:3"], "axis 'beta'"),
              (["ggx", "--axis", "alpha=0:1:3"], "alpha=0.0 is out of range"),
              (["ggx", "--axis", "alpha=0.1:1:3", "--error-rate", "0.7"],
-              "error_rate=0.7 is out of range"),
+              "--error-rate=0.7 is out of range"),
              (["ggx", "--axis", "alpha=0.1:1"], "needs a COUNT"),
              (["ggx", "--axis", "alpha=0.1,0.2", "--random", "5"], "random points need a range"),
              (["ggx", "--axis", "alpha=0.1:1:3", "--samples", "64", "--max-samples", "32"],
-              "max_samples=32 is out of range"),
+              "--max-samples=32 is out of range"),
              (["ggx", "--axis", "alpha=0.1:1:3", "--directions", "gauss:0"], "out of range"),
              (["ggx", "--axis", "alpha=0.1:1:3", "--directions", "mu=0,1"], "mu=0.0 is out of range"),
              (["ggx", "--axis", "alpha=0.1:1:3", "-p", "alpha=0.2"], "both as an axis"),
@@ -307,14 +307,14 @@ def test_sigterm_and_sigint_stop_after_the_chunk_with_everything_written(tmp_pat
             assert _cli(SWEEP_ARGS + sweep_args).wait(120) == 0
             s_ref = open_sweep(ref)
         for i in done:               # each completed chunk is the uninterrupted run's
-            a, b = job.chunk_bounds(s.job, i)
+            a, b = sj.chunk_bounds(s.job, i)
             for k in ARRAYS:
                 assert np.array_equal(s[k][a:b], s_ref[k][a:b], equal_nan=True), k
         v = s["verdict"][:]
         not_done = np.ones(len(v), bool)
         for i in done:
-            not_done[slice(*job.chunk_bounds(s.job, i))] = False
-        assert np.all(v[not_done] == job.NOT_DONE)
+            not_done[slice(*sj.chunk_bounds(s.job, i))] = False
+        assert np.all(v[not_done] == sj.NOT_DONE)
         assert _cli(SWEEP_ARGS + ["--out", str(out), "--resume"]).wait(120) == 0
         same_store(s_ref, open_sweep(out))
 

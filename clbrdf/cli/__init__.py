@@ -25,7 +25,7 @@ import numpy as np
 from ..api.albedo import ESTIMATORS, albedo
 from ..api.model import PRECISIONS, Model
 from ..models import MODELS, get_spec, presets
-from ..models.spec import ParameterError, check_directions, check_int, check_mu
+from ..models.spec import ParameterError, check_directions, check_int
 from ..runtime import probe
 from ..runtime.device import (
     NO_DEVICE_HELP,
@@ -50,18 +50,17 @@ from ..studies.sweepjob import (
     chunk_bounds,
     make_job,
 )
-from ..tables import plain as tables
-from ..tables.axes import MAPPED, check_form, evaluated, parse_axis
+from ..tables.axes import parse_axis
 from ..tables.checkpoint import checkpoint
-from ..tables.compute import albedo_table
+from ..tables.compute import albedo_table, table_axes
+from ..tables.files import check_out, save_tables
 from ..tables.layouts import (
-    compute_table,
     get_layout,
     layouts,
     layouts as _layouts,
     make_layout,
 )
-from ..tables.table import check_out, load_tables, save_tables
+from ..tables.table import load_tables
 from ..version import __version__
 
 EXIT_INPUT = 2
@@ -493,7 +492,7 @@ def _layout_table(args, outs) -> int:
                              width=args.width, progress=True, command=_no_resume(cmd),
                              **_quad_args(args), **_target_args(args))
         seconds = time.perf_counter() - t0
-        written = [w for o in outs for w in save_tables(tables, o, prefix=_c_name(args.layout))]
+        written = save_tables(tables, outs, prefix=_c_name(args.layout))
     for name, t in tables.items():
         print(f"{name}: {', '.join(t.quantity)} {' x '.join(str(n) for n in t.shape)} "
               f"({t.encoding}), largest stderr {float(t.stderr.max()):.2g}")
@@ -506,49 +505,8 @@ def _layout_table(args, outs) -> int:
     return 0
 
 
-def _table_axes_args(args, spec, params) -> dict:
-    """--axis texts -> axis dicts, each checked against the model before any work."""
-    axes = {}
-    for text in args.axis:
-        ax = parse_axis(text)
-        name = ax["name"]
-        if name in axes:
-            raise ParameterError(f"axis {name} is given twice")
-        target = MAPPED[name][0] if name in MAPPED else name
-        if name not in ("mu", "theta", "phi"):
-            if any(o.name == target for o in spec.options):
-                raise ParameterError(f"axis {name}: {name} is an option, not a numeric parameter; "
-                                     f"give it as --param {name}=CHOICE")
-            if target in params:
-                raise ParameterError(f"parameter {target} is given both as --axis {name} and "
-                                     f"--param")
-        try:
-            ax = check_form(ax)
-            v = evaluated(ax)
-            if target == "mu":
-                check_mu(v, args.precision)
-            elif name != "phi":
-                spec.param(target).check(v)
-        except ParameterError as e:
-            hint = ("" if "min" in ax or "values" not in ax else
-                    "; an axis can keep its values and be evaluated at max(value, LO) with "
-                    ":min=LO")
-            raise ParameterError(f"--axis {text}: {_clean(e)}{hint}") from None
-        axes[name] = ax
-    if "mu" not in axes and "theta" not in axes:
-        raise ParameterError("a table needs a mu axis: --axis mu=START:STOP:COUNT with mu in "
-                             "[1e-6, 1] (single) or [1e-12, 1] (double), or theta")
-    return axes
-
-
 def cmd_table(args) -> int:
     outs = [Path(o) for o in args.out]
-    out = outs[0]
-    if len(outs) > 1 and not (args.layout or all(o.suffix.lower() in (".h", ".exr", ".npz")
-                                                 for o in outs) and any(
-            o.suffix.lower() in (".h", ".exr") for o in outs)):
-        raise ParameterError("--out is given several times: only layouts and .h/.exr tables "
-                             "write several files")
     if args.layout:
         if args.model or args.axis or args.param or args.preset:
             raise ParameterError("--layout names the model, parameters and axes itself: give no "
@@ -560,52 +518,82 @@ def cmd_table(args) -> int:
         raise ParameterError("a table needs axes: --axis mu=START:STOP:COUNT (and more)")
     spec = _spec(args.model)
     params = parse_params(spec, args.param)
-    lut = len(outs) > 1 or out.suffix.lower() in (".h", ".exr")
-    if lut:
-        for o in outs:
-            check_out(o)
-    else:
-        try:
-            tables.check_output(out)
-        except ValueError as e:
-            raise ParameterError(f"--out {str(out)!r}: {e}") from None
-    axes = _table_axes_args(args, spec, params)
-    # fail before computing on bad parameters or no device
+    for o in outs:
+        check_out(o)
+    axes = {}
+    for text in args.axis:
+        ax = parse_axis(text)
+        if ax["name"] in axes:
+            raise ParameterError(f"axis {ax['name']} is given twice")
+        axes[ax["name"]] = ax
+    fixed = {**params, **({"preset": args.preset} if args.preset else {})}
+    # every axis against the model, and the model on the device, before any work
+    table_axes(spec, axes, fixed, args.precision)
     _model(spec.name, args, params)
     t0 = time.perf_counter()
     why = _choose_estimator(args)
     cmd = _no_resume(" ".join(["clbrdf"] + [_quote(a) for a in args.argv]))
-    if lut:
-        if args.estimator == "quadrature":
-            raise ParameterError("a .h or .exr table is a Monte Carlo estimate: --estimator "
-                                 "quadrature writes .npz or .csv")
-        kw = dict(samples=args.samples, estimator=args.estimator, seed=args.seed, qmc=args.qmc,
-                  precision=args.precision, device=args.device, width=args.width, progress=True,
-                  command=cmd, fixed={**params, **({"preset": args.preset} if args.preset else {})},
-                  **_target_args(args))
-        with _resumable(args, out):
-            luts = {"E": compute_table(spec.name, "E", "E", list(axes.values()), **kw)}
-            pax = [a for n, a in axes.items() if n not in ("mu", "theta", "phi")]
-            if pax:
-                luts["E_avg"] = compute_table(spec.name, "E_avg", "E_avg", pax, **kw)
-            written = [w for o in outs for w in save_tables(luts, o, prefix=_c_name(spec.name))]
-        for name, t in luts.items():
-            print(f"{name}: {' x '.join(str(n) for n in t.shape)}, largest stderr "
-                  f"{float(t.stderr.max()):.2g}")
-        print(f"{time.perf_counter() - t0:.1f} s; wrote {', '.join(map(str, written))}")
-    else:
-        with _resumable(args, out):
-            table = albedo_table(spec.name, axes, samples=args.samples,
-                                 estimator=args.estimator, seed=args.seed, qmc=args.qmc,
-                                 precision=args.precision, device=args.device, width=args.width,
-                                 progress=True, preset=args.preset, command=cmd,
-                                 **_quad_args(args), **_target_args(args), **params)
-            seconds = time.perf_counter() - t0
-            written = tables.save_table(table, out)
-        print(tables.summary(table, seconds, written))
+    with _resumable(args, outs[0]):
+        table = albedo_table(spec.name, axes, samples=args.samples,
+                             estimator=args.estimator, seed=args.seed, qmc=args.qmc,
+                             precision=args.precision, device=args.device, width=args.width,
+                             progress=True, command=cmd, **_quad_args(args),
+                             **_target_args(args), **fixed)
+        seconds = time.perf_counter() - t0
+        written = save_tables(table, outs, prefix=_c_name(spec.name))
+    print(_table_summary(table, seconds, written))
     if why:
         _note(args, f"no --estimator: {why}")
     return 0
+
+
+def _axis_text(name, values, spacing) -> str:
+    v = np.asarray(values, dtype=float)
+    sp = f", {spacing}" if spacing == "log" else ""
+    return f"{name} {len(v)} values in [{v.min():g}, {v.max():g}]{sp}"
+
+
+def _how(meta: dict) -> str:
+    if meta.get("estimator") == "quadrature":
+        return (f"quadrature to tol {meta.get('tol'):g}, up to {meta.get('samples')} "
+                f"evaluations per point")
+    est = meta.get("estimator", "?") + (" + QMC" if meta.get("qmc") else "")
+    return f"{meta.get('samples')} samples per point, estimator {est}, seed {meta.get('seed')}"
+
+
+def _table_summary(t, seconds: float, written) -> str:
+    """A few lines: grid, time, min/max E, E_avg range, files written."""
+    meta = t.computed
+    names = [n for n in meta["axes"] if n != "channel"] + \
+        (["channel"] if "channel" in meta["axes"] else [])
+    spacing = meta.get("spacing", {})
+    E = np.asarray(t["E"], dtype=float)
+    coords = {n: (t[n] if n != "channel" else np.arange(E.shape[-1])) for n in names}
+    grid = " x ".join(_axis_text(n, coords[n], spacing.get(n, "lin")) for n in names)
+
+    def at(idx, axes):
+        return ", ".join(f"{n}={float(coords[n][i]):.3g}" for n, i in zip(axes, idx))
+    imin = np.unravel_index(int(np.argmin(E)), E.shape)
+    imax = np.unravel_index(int(np.argmax(E)), E.shape)
+    err = "error" if meta.get("estimator") == "quadrature" else "stderr"
+    lines = [
+        f"{meta.get('model')} albedo table: {grid} = {E.size} points",
+        f"  {_how(meta)}, {meta.get('precision')} precision, {meta.get('device')}: {seconds:.1f} s",
+        f"  E      min {E.min():.5f} ({at(imin, names)}), max {E.max():.5f} ({at(imax, names)}), "
+        f"max {err} {np.max(t['E_stderr']):.1e}",
+    ]
+    if t.average is not None:
+        A = np.asarray(t["E_avg"], dtype=float)
+        others = [n for n in names if n not in ("mu", "theta", "phi")]
+        if others and A.ndim:
+            j0 = np.unravel_index(int(np.argmin(A)), A.shape)
+            j1 = np.unravel_index(int(np.argmax(A)), A.shape)
+            lines.append(f"  E_avg  min {A.min():.5f} ({at(j0, others)}), max {A.max():.5f} "
+                         f"({at(j1, others)}), max {err} {np.max(t['E_avg_stderr']):.1e}")
+        else:
+            lines.append(f"  E_avg  {float(A):.5f} +- {float(np.max(t['E_avg_stderr'])):.1e}")
+    lines.append("  wrote " + ", ".join(str(p) for p in written))
+    return "\n".join(lines)
 
 
 def _no_resume(cmd: str) -> str:
@@ -1151,9 +1139,29 @@ def build_parser() -> argparse.ArgumentParser:
     return top
 
 
+# the library names its Python parameters; the command line names them as its flags
+FLAG_WORDS = [
+    (r"\baxis (?=')", "--axis "), (r"\baxis (\w+) differs", r"--axis \1 differs"),
+    (r"\baxes differ\b", "--axis differs"), (r"\bdirections (?=')", "--directions "),
+    (r"\bdirections differ\b", "--directions differs"),
+    (r"\bfixed parameter (\w+) differs", r"--param \1 differs"),
+    (r"\b(?:with )?resume=False\b", "without --resume"), (r"\bresume=True\b", "--resume"),
+    (r"\bout=(?=')", "--out "), (r"\brandom=N\b", "--random N"),
+    (r"\(mu=START:STOP:COUNT\)", "(--axis mu=START:STOP:COUNT)"),
+    (r"(?<![\w-])(max_samples|target_stderr|error_rate)\b",
+     lambda m: "--" + m.group(1).replace("_", "-")),
+    (r"(?<=: )(preset|estimator|qmc|samples|seed|precision|width|chunk|random) differs",
+     r"--\1 differs"),
+    (r"(?<=: )model differs", "MODEL differs"),
+]
+
+
 def _clean(e) -> str:
-    """One line; NumPy scalar reprs (np.float64(0.5)) shown as plain numbers."""
+    """One line; NumPy scalar reprs (np.float64(0.5)) shown as plain numbers; the library's
+    parameter names as the flags that set them (FLAG_WORDS)."""
     msg = re.sub(r"(?<!['\"])np\.(?:float|int|uint)\d+\(([^()]*)\)", r"\1", str(e))
+    for pattern, repl in FLAG_WORDS:
+        msg = re.sub(pattern, repl, msg)
     return " ".join(msg.split())
 
 
@@ -1193,7 +1201,7 @@ def main(argv=None) -> int:
     with warnings.catch_warnings():     # restored for callers of main() in the same process
         warnings.filterwarnings("ignore", message=r".*has been retrieved more than once")
         warnings.showwarning = lambda message, category, *a, **k: print(
-            f"clbrdf {args.command}: warning: {message}", file=sys.stderr)
+            f"clbrdf {args.command}: warning: {_clean(message)}", file=sys.stderr)
         return _run(args)
 
 

@@ -54,7 +54,6 @@ from __future__ import annotations
 import json
 import os
 import platform
-import signal
 import threading
 import time
 from pathlib import Path
@@ -64,7 +63,7 @@ import numpy as np
 from ..models.spec import ParameterError
 from ..runtime.device import resolve_devices
 from ..runtime.launch import environment, progress_bar
-from ..tables.outputs import _alive, lock_dir
+from ..tables.outputs import alive, lock_dir
 from ..version import __version__
 from .cluster import run_on_cluster, worker_width
 from .sweepjob import (
@@ -104,7 +103,7 @@ def _create(path: Path, job: dict, manifest: dict) -> None:
     import zarr
     for old in path.parent.glob(f".{path.name}.*.creating"):        # left by a killed process
         pid = old.name[len(path.name) + 2:].split(".", 1)[0]
-        if pid.isdigit() and not _alive(int(pid)):
+        if pid.isdigit() and not alive(int(pid)):
             import shutil
             shutil.rmtree(old, ignore_errors=True)
     tmp = path.parent / f".{path.name}.{os.getpid()}.creating"
@@ -149,10 +148,11 @@ def _write_chunk(root, path: Path, job: dict, index: int, arrays: dict, info: di
 # running
 
 class _Stop:
-    """Set by SIGINT / SIGTERM (or a failed worker): workers finish their chunk and return."""
+    """Set by the caller's event, an exception in the calling thread (KeyboardInterrupt) or a
+    failed worker: workers finish their chunk and return."""
 
-    def __init__(self):
-        self.event = threading.Event()
+    def __init__(self, event: threading.Event | None = None):
+        self.event = event if event is not None else threading.Event()
         self.reason: BaseException | None = None
 
 
@@ -175,21 +175,9 @@ def _local_worker(root, path, job, device, todo, lock, stop: _Stop, bar, errors)
         stop.event.set()
 
 
-def _install_sigterm():
-    """SIGTERM raises KeyboardInterrupt in the main thread while a sweep runs (unless a handler
-    is already installed, as the CLI's)."""
-    if threading.current_thread() is not threading.main_thread():
-        return None
-    if signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
-        return None
-
-    def handler(signum, frame):
-        raise KeyboardInterrupt("SIGTERM")
-    return signal.signal(signal.SIGTERM, handler)
-
-
 def sweep(model: str | None = None, out=None, *, resume: bool = False, device=None,
-          client=None, progress: bool = False, command: str | None = None, **kw):
+          client=None, progress: bool = False, command: str | None = None,
+          stop: threading.Event | None = None, **kw):
     """Run (or, with ``resume=True``, continue) a sweep into the zarr store ``out`` and return it
     opened (``Sweep``). Arguments as ``make_job``: ``axes`` (dict name -> (start, stop, count[,
     spacing]) or values or (start, stop[, spacing]) with ``random=N``), ``directions``,
@@ -198,15 +186,17 @@ def sweep(model: str | None = None, out=None, *, resume: bool = False, device=No
     ``device``: a selector, a Device, or a list of them (chunks are dealt out as devices
     finish); ``client``: a dask.distributed Client whose workers compute the chunks (see
     clbrdf.cluster). With ``resume=True`` and no model, the store's own job continues.
-    SIGINT or SIGTERM stop the run after the chunks in progress, with all of them written;
-    KeyboardInterrupt is then raised."""
+    ``stop``: a threading.Event; once it is set the run ends after the chunks in progress, all
+    of them written, and returns the store as far as it got (``Sweep.done()``). A
+    KeyboardInterrupt (or any exception) in the calling thread does the same and is re-raised.
+    Signals are the caller's: the command line turns SIGTERM into such an exception."""
     if out is None:
         raise ParameterError("out (the store path) is required")
     path = Path(out)
     if resume:
         if not (path / "zarr.json").exists():
-            raise ParameterError(f"--resume: {str(path)!r} is not a sweep store (no zarr.json); "
-                                 f"start it without --resume")
+            raise ParameterError(f"resume=True: {str(path)!r} is not a sweep store (no "
+                                 f"zarr.json); start it with resume=False")
         old = open_sweep(path).manifest
         if model is None:
             job = old["job"]
@@ -221,10 +211,10 @@ def sweep(model: str | None = None, out=None, *, resume: bool = False, device=No
         if model is None:
             raise ParameterError("a model is required (or resume=True for an existing store)")
         if path.exists():
-            raise ParameterError(f"--out {str(path)!r} exists: continue it with --resume or "
+            raise ParameterError(f"out={str(path)!r} exists: continue it with resume=True or "
                                  f"choose a new path")
         if not path.parent.is_dir():
-            raise ParameterError(f"--out {str(path)!r}: directory {str(path.parent)!r} does not "
+            raise ParameterError(f"out={str(path)!r}: directory {str(path.parent)!r} does not "
                                  f"exist")
         if client is not None and kw.get("width") is None:
             kw["width"] = worker_width(client, kw.get("precision", "single"))
@@ -236,7 +226,7 @@ def sweep(model: str | None = None, out=None, *, resume: bool = False, device=No
     try:
         import zarr
         return _sweep_run(zarr.open_group(str(path), mode="r+"), path, job, client, device,
-                          progress)
+                          progress, stop)
     finally:
         os.close(lock)
 
@@ -252,14 +242,13 @@ def _manifest(job: dict, command) -> dict:
         "environment": environment()}
 
 
-def _sweep_run(root, path, job, client, device, progress):
+def _sweep_run(root, path, job, client, device, progress, event=None):
     done = done_chunks(path)
     todo = [i for i in range(n_chunks(job)) if i not in done]
     total = job["points"]
     bar = progress_bar(total, progress, unit="pt")
     bar.update(total - sum(chunk_bounds(job, i)[1] - chunk_bounds(job, i)[0] for i in todo))
-    stop = _Stop()
-    previous = _install_sigterm()
+    stop = _Stop(event)
     try:
         if client is not None:
             run_on_cluster(client, root, path, job, todo, stop, bar, _write_chunk, device)
@@ -267,8 +256,6 @@ def _sweep_run(root, path, job, client, device, progress):
             _run_local(root, path, job, resolve_devices(device), todo, stop, bar)
     finally:
         bar.close()
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
     return open_sweep(path)
 
 

@@ -44,7 +44,7 @@ def _check_axis(ax: dict, spec, random: bool) -> dict:
     name = ax["name"]
     if not any(p.name == name for p in spec.params):
         opts = [o.name for o in spec.options]
-        why = "an option: give it as a fixed argument (--param)" if name in opts else "not a parameter"
+        why = "an option: give it as a fixed argument" if name in opts else "not a parameter"
         raise ParameterError(f"axis {name!r} of model {spec.name} is {why}; axes are the "
                              f"parameters {', '.join(p.name for p in spec.params)}")
     if ax.get("min") is not None:
@@ -78,21 +78,21 @@ def parse_directions(text: str, precision: str) -> dict:
         try:
             n_mu, n_phi = int(n), int(m or 1)
         except ValueError:
-            raise ParameterError(f"--directions {text!r} is malformed: {form}") from None
+            raise ParameterError(f"directions {text!r} is malformed: {form}") from None
         check_int("directions N (mu nodes)", n_mu, 1, 1024)
         check_int("directions M (azimuths)", n_phi, 1, 1024)
         return gauss_directions(n_mu, n_phi)
     parts = dict(p.partition("=")[::2] for p in t.split(";"))
     if "mu" not in parts or set(parts) - {"mu", "phi"}:
-        raise ParameterError(f"--directions {text!r} is malformed: {form}")
+        raise ParameterError(f"directions {text!r} is malformed: {form}")
     try:
         mu = np.array([float(x) for x in parts["mu"].split(",")])
         phi = np.array([float(x) for x in parts.get("phi", "0").split(",")])
     except ValueError:
-        raise ParameterError(f"--directions {text!r}: values must be numbers ({form})") from None
+        raise ParameterError(f"directions {text!r}: values must be numbers ({form})") from None
     check_mu(mu, precision)
     if not np.all(np.isfinite(phi)):
-        raise ParameterError(f"--directions {text!r}: phi must be finite")
+        raise ParameterError(f"directions {text!r}: phi must be finite")
     M, P = np.meshgrid(mu, phi, indexing="ij")
     return {"spec": t, "mu": M.ravel().tolist(), "phi": P.ravel().tolist(), "weight": None}
 
@@ -129,7 +129,7 @@ def make_job(model: str, *, axes=None, random=None, directions=None, samples: in
             raise ParameterError(f"parameter {k} is given both as an axis and as a fixed value")
     axes = [_check_axis(a, spec, random is not None) for a in axes]
     if random is not None and not axes:
-        raise ParameterError("random points need at least one axis range (--axis NAME=START:STOP)")
+        raise ParameterError("random points need at least one axis range (NAME=START:STOP)")
     npoints = random if random is not None else math.prod(len(a["values"]) for a in axes)
     samples = check_int("samples", samples, 2, 2**31, "[2, 2^31]")
     max_samples = samples * MAX_GROWTH if max_samples is None else max_samples
@@ -192,36 +192,34 @@ def make_job(model: str, *, axes=None, random=None, directions=None, samples: in
             "channels": channels, "spectral_axes": spectral_axes}
 
 
-# the job keys a resume compares, with the argument that sets each (CLI form)
-ARGUMENTS = {"model": "MODEL", "preset": "--preset", "fixed": "--param", "axes": "--axis",
-             "random": "--random", "directions": "--directions", "estimator": "--estimator",
-             "qmc": "--qmc", "samples": "--samples", "max_samples": "--max-samples",
-             "target_stderr": "--target-stderr", "error_rate": "--error-rate", "seed": "--seed",
-             "precision": "--precision", "width": "--width", "chunk": "--chunk"}
+# the job keys a resume compares: the arguments of ``sweep`` that set them
+ARGUMENTS = ("model", "preset", "fixed", "axes", "random", "directions", "estimator", "qmc",
+             "samples", "max_samples", "target_stderr", "error_rate", "seed", "precision",
+             "width", "chunk")
 
 
 def job_difference(old: dict, new: dict) -> str | None:
     """None if two jobs compute the same arrays, else which argument differs and how."""
-    for key, arg in ARGUMENTS.items():
+    for key in ARGUMENTS:
         a, b = old.get(key), new.get(key)
         if a == b:
             continue
         if key == "fixed":
             for k in sorted(set(a) | set(b)):
                 if a.get(k) != b.get(k):
-                    return f"--param {k} differs (store: {a.get(k)!r}, now: {b.get(k)!r})"
+                    return f"fixed parameter {k} differs (store: {a.get(k)!r}, now: {b.get(k)!r})"
         if key == "axes":
             an, bn = [x["name"] for x in a], [x["name"] for x in b]
             if an != bn:
-                return f"--axis differs (store: axes {an}, now: {bn})"
+                return f"axes differ (store: axes {an}, now: {bn})"
             for x, y in zip(a, b):
                 if x != y:
                     show = lambda ax: {k: v for k, v in ax.items() if k != "values"} \
                         if "count" in ax else ax
-                    return f"--axis {x['name']} differs (store: {show(x)}, now: {show(y)})"
+                    return f"axis {x['name']} differs (store: {show(x)}, now: {show(y)})"
         if key == "directions":
-            return f"--directions differs (store: {a['spec']!r}, now: {b['spec']!r})"
-        return f"{arg} differs (store: {a!r}, now: {b!r})"
+            return f"directions differ (store: {a['spec']!r}, now: {b['spec']!r})"
+        return f"{key} differs (store: {a!r}, now: {b!r})"
     return None
 
 

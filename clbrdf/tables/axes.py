@@ -45,16 +45,16 @@ def parse_axis(text: str) -> dict:
     name, sep, rest = text.partition("=")
     name, rest = name.strip(), rest.strip()
     if not sep or not name or not rest:
-        raise ParameterError(f"--axis {text!r} is malformed: {FORM}")
+        raise ParameterError(f"axis {text!r} is malformed: {FORM}")
 
     def num(s, what):
         try:
             v = float(s)
         except ValueError:
-            raise ParameterError(f"--axis {text!r}: {what}={s.strip()!r} is not a number "
+            raise ParameterError(f"axis {text!r}: {what}={s.strip()!r} is not a number "
                                  f"({FORM})") from None
         if not math.isfinite(v):
-            raise ParameterError(f"--axis {text!r}: {what}={v!r} is not finite")
+            raise ParameterError(f"axis {text!r}: {what}={v!r} is not finite")
         return v
     if ":" not in rest:
         return {"name": name, "values": [num(s, "value") for s in rest.split(",")]}
@@ -71,16 +71,16 @@ def parse_axis(text: str) -> dict:
         elif len(nums) < 3 and not ({"spacing", "placement", "min"} & set(ax)):
             nums.append(f)
         else:
-            raise ParameterError(f"--axis {text!r}: {f!r} is not a spacing ({', '.join(SPACINGS)}),"
+            raise ParameterError(f"axis {text!r}: {f!r} is not a spacing ({', '.join(SPACINGS)}),"
                                  f" a placement ({', '.join(PLACEMENTS)}) or min=LO ({FORM})")
     if len(nums) not in (2, 3):
-        raise ParameterError(f"--axis {text!r} is malformed: {FORM}")
+        raise ParameterError(f"axis {text!r} is malformed: {FORM}")
     ax["start"], ax["stop"] = num(nums[0], "START"), num(nums[1], "STOP")
     if len(nums) == 3:
         try:
             ax["count"] = int(nums[2])
         except ValueError:
-            raise ParameterError(f"--axis {text!r}: COUNT={nums[2]!r} is not an integer: valid "
+            raise ParameterError(f"axis {text!r}: COUNT={nums[2]!r} is not an integer: valid "
                                  f"COUNT is in [1, {MAX_COUNT}]") from None
     return ax
 
@@ -189,7 +189,7 @@ def check_form(ax: dict, random: bool = False) -> dict:
     count = ax.get("count")
     if count is None:
         raise ParameterError(f"axis {name}: a grid axis needs a COUNT (START:STOP:COUNT) or "
-                             f"a list of values; or use random points (--random N)")
+                             f"a list of values; or use random points (random=N)")
     count = check_int(f"axis {name} COUNT", count, 1, MAX_COUNT)
     out = {"name": name, "start": start, "stop": stop, "count": count, "spacing": spacing}
     if placement != "nodes":
@@ -239,3 +239,19 @@ def describe(ax: dict) -> str:
     if n in MAPPED:
         s += f" ({MAPPED[n][1]})"
     return s
+
+
+def axis_text(ax: dict) -> str:
+    """The axis as text (``parse_axis`` reads it back): 'alpha=0.1:1:4:log', 'mu=0.5,1'."""
+    if ax.get("spacing") == "list" or ax.get("start") is None:
+        return f"{ax['name']}=" + ",".join(f"{v:g}" for v in ax["values"])
+    parts = [f"{ax['start']:g}", f"{ax['stop']:g}"]
+    if ax.get("count") is not None:
+        parts.append(str(ax["count"]))
+    if ax.get("spacing", "lin") != "lin":
+        parts.append(ax["spacing"])
+    if ax.get("placement", "nodes") != "nodes":
+        parts.append(ax["placement"])
+    if ax.get("min") is not None:
+        parts.append(f"min={ax['min']:g}")
+    return f"{ax['name']}=" + ":".join(parts)

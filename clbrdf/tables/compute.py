@@ -20,17 +20,23 @@ from ..api.albedo import (
 )
 from ..api.model import Model
 from ..models import get_spec
-from ..models.spec import ParameterError, check_int, finite_or_raise
+from ..models.spec import ParameterError, check_int, check_mu, finite_or_raise
 from ..runtime.launch import derive_seed, environment
 from ..runtime.quadrature import QUAD_MAX_EVALS
 from ..version import __version__
 from . import axes as ax_mod
+from .table import from_albedo
 
 
-def _table_axes(spec, axes, spacing=None) -> list:
-    """Validated axes as axis dicts (clbrdf.axes): from a dict name -> 1-D values, axis text or
-    an axis dict; named mu or theta (exactly one), phi, r (alpha = r^2, for a model with alpha)
-    or a numeric parameter of the model."""
+def table_axes(spec, axes, fixed=None, precision: str = "single", spacing=None) -> list:
+    """Validated axes as axis dicts (clbrdf.tables.axes): from a dict name -> 1-D values, axis
+    text or an axis dict; named mu or theta (exactly one), phi, r (alpha = r^2, for a model with
+    alpha) or a numeric parameter of the model (of ``spec``, a ModelSpec or a name) that is not
+    also in ``fixed``; the values the model is evaluated at within the parameter's range (mu
+    within the ``precision``'s). Everything ``albedo_table`` checks of its axes, before any
+    work."""
+    spec = get_spec(spec) if isinstance(spec, str) else spec
+    fixed = fixed or {}
     if not isinstance(axes, dict) or not axes:
         raise ParameterError(f"axes={axes!r} is not valid: give a dict of axis name -> 1-D values "
                              f"with at least a mu axis")
@@ -58,16 +64,37 @@ def _table_axes(spec, axes, spacing=None) -> list:
                                      f"shape {a.shape}")
             finite_or_raise(f"axis {k}", a)
             ax = {"name": k, "values": a.tolist()}
-        ax = ax_mod.check_form(ax)
+        try:
+            ax = ax_mod.check_form(ax)
+        except ParameterError as e:
+            why = str(e).removeprefix(f"axis {k}: ")
+            raise ParameterError(f"axis {ax_mod.axis_text(ax)}: {why}") from None
         if (spacing or {}).get(k) and ax["spacing"] == "list":
             ax["spacing"] = spacing[k]      # values made by the caller with this spacing
         out.append(ax)
     names = [a["name"] for a in out]
     if ("mu" in names) == ("theta" in names):
-        raise ParameterError("a table needs one axis of the outgoing direction: mu (--axis "
-                             "mu=START:STOP:COUNT) or theta (radians, mu = cos theta)")
+        raise ParameterError("a table needs one axis of the outgoing direction: mu (mu="
+                             "START:STOP:COUNT) or theta (radians, mu = cos theta)")
     if "r" in names and "alpha" in names:
         raise ParameterError("give axis r (alpha = r^2) or axis alpha, not both")
+    for ax in out:
+        name = ax["name"]
+        target = ax_mod.MAPPED[name][0] if name in ax_mod.MAPPED else name
+        if name in fixed or target in fixed:
+            raise ParameterError(f"parameter {target} is given both as an axis ({name}) and "
+                                 f"as a fixed value")
+        try:
+            v = ax_mod.evaluated(ax)
+            if target == "mu":
+                check_mu(v, precision)
+            elif name != "phi":
+                spec.param(target).check(v)
+        except ParameterError as e:
+            hint = ("" if ax.get("min") is not None or ax.get("spacing") == "list" else
+                    "; an axis can keep its values and be evaluated at max(value, LO) with "
+                    ":min=LO")
+            raise ParameterError(f"axis {ax_mod.axis_text(ax)}: {e}{hint}") from None
     return out
 
 
@@ -122,8 +149,7 @@ def _refine(est, err, scale, shape, run, samples, target, max_samples, seed, pre
         warnings.warn(
             f"target_stderr={target:g} not reached in {int(missed.sum())} of {missed.size} "
             f"{what} at max_samples={max_samples} (standard error with what that many samples "
-            f"cannot resolve up to {float(worst.max()):.2g}); raise max_samples "
-            f"(--max-samples)", TargetStderrWarning, stacklevel=3)
+            f"cannot resolve up to {float(worst.max()):.2g}); raise max_samples", TargetStderrWarning, stacklevel=3)
     return e2.reshape(est.shape), eff.reshape(err.shape), n.reshape(shape)
 
 
@@ -135,29 +161,31 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
                  split: bool = False, average: bool = True, target_stderr: float | None = None,
                  max_samples: int | None = None, command: str | None = None, **fixed):
     """A table of E over the grid of ``axes`` (an ordered dict name -> 1-D values, axis text
-    such as ``"0:1:32:centres"`` or an axis dict, see clbrdf.axes: ``mu`` or ``theta``, ``phi``
-    (azimuth of wo, default 0), ``r`` (alpha = r^2) and any numeric model parameter, per-channel
-    ones included), with fixed parameters, options and ``preset`` in ``fixed``. Returns a dict
-    with ``E``, ``E_stderr`` (axes in the given order, then ``channel`` for an RGB model), one
-    array per axis (its own values; the model is evaluated at ``clbrdf.axes.evaluated``),
-    ``E_avg`` and ``E_avg_stderr`` over the axes other than mu, theta and phi (averaged over the
-    azimuth for anisotropic models, see ``albedo_avg``), and ``metadata`` (a JSON string,
-    everything the bits depend on).
+    such as ``"0:1:32:centres"`` or an axis dict, see clbrdf.tables.axes: ``mu`` or ``theta``,
+    ``phi`` (azimuth of wo, default 0), ``r`` (alpha = r^2) and any numeric model parameter,
+    per-channel ones included), with fixed parameters, options and ``preset`` in ``fixed``.
+    Returns a ``clbrdf.Table`` named "E": ``t["E"]``, ``t["E_stderr"]`` over the axes in the
+    given order (then a channel axis for an RGB model), ``t[axis]`` each axis's own values (the
+    model is evaluated at ``clbrdf.tables.axes.evaluated``), and its ``average`` "E_avg"
+    (``t["E_avg"]``, ``t["E_avg_stderr"]``) over the axes other than mu, theta and phi
+    (averaged over the azimuth for anisotropic models, see ``albedo_avg``); ``t.computed``
+    holds everything the bits depend on.
 
-    ``split=True`` (Schlick-Fresnel models) also gives ``A`` and ``B`` (and ``A_avg``, ``B_avg``,
-    each with ``_stderr``): E(F0) = F0 A + B, A with F = 1 - (1 - c)^5, B with F = (1 - c)^5 and
-    E = A + B with F = 1, all three from the same samples (channels of one RGB model with
-    (f0, f90) = (1, 0), (0, 1), (1, 1)): the scale and bias tables of Filament, UE and three.js.
-    ``average=False`` leaves out the averages (and their cost).
+    ``split=True`` (Schlick-Fresnel models) gives the quantities ``A``, ``B`` and ``E`` (and
+    ``A_avg``, ``B_avg``, ``E_avg``, each with ``_stderr``): E(F0) = F0 A + B, A with
+    F = 1 - (1 - c)^5, B with F = (1 - c)^5 and E = A + B with F = 1, all three from the same
+    samples (channels of one RGB model with (f0, f90) = (1, 0), (0, 1), (1, 1)): the scale and
+    bias tables of Filament, UE and three.js. ``average=False`` leaves out the averages (and
+    their cost).
 
     ``target_stderr``: cells (and averages) whose standard error (the largest over channels,
     with the allowance for what N samples cannot see, ``unseen``, in quadrature) is above
     it get GROWTH times their samples per look from independent numbers (seed derived from
     (seed, look)), pooled with what they have, until they meet it or reach ``max_samples``
-    (default 64 x samples); ``E_samples`` (and ``E_avg_samples``) say how many each took. Not
-    with the quadrature, whose ``tol`` is its target."""
+    (default 64 x samples); ``t["E_samples"]`` (and ``t["E_avg_samples"]``) say how many each
+    took. Not with the quadrature, whose ``tol`` is its target."""
     spec = get_spec(name)
-    axl = _table_axes(spec, axes, spacing)
+    axl = table_axes(spec, axes, fixed, precision, spacing)
     if target_stderr is not None:
         if estimator == "quadrature":
             raise ParameterError("target_stderr is for the Monte Carlo estimators; the "
@@ -176,10 +204,6 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
     evals = {a["name"]: ax_mod.evaluated(a) for a in axl}
     model_name = {a["name"]: ax_mod.MAPPED[a["name"]][0] if a["name"] in ax_mod.MAPPED
                   else a["name"] for a in axl}
-    for k in names:
-        if k in fixed or model_name[k] in fixed:
-            raise ParameterError(f"parameter {model_name[k]} is given both as an axis ({k}) and "
-                                 f"as a fixed value")
     if split:
         bad = sorted(set(fixed) & {"f0", "f90", "preset", "channels", "eta", "k"})
         if bad or fixed.get("fresnel", "schlick") != "schlick" or \
@@ -296,5 +320,4 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
                           "attribution": m.preset.attribution}
     if command is not None:
         meta["command"] = command
-    out["metadata"] = json.dumps(meta)
-    return out
+    return from_albedo(out, json.loads(json.dumps(meta)))

@@ -130,10 +130,11 @@ def _run_kc(model, axl, q, fixed, **kw):
     values, stderr = np.broadcast_to(values, vF.shape), np.broadcast_to(stderr, vF.shape)
     if q.startswith("1-"):
         values = 1 - values
-    meta = json.loads(t["metadata"])
+    meta = json.loads(json.dumps(t.computed))
     meta["quantity"] = {q: "E_F + F_ms (1 - E), F_ms = F_avg^2 E_avg / (1 - F_avg (1 - E_avg)); "
                            "E, E_avg with F = 1; F_avg by clbrdf.fresnel_avg (Kulla-Conty)"}
-    return np.array(values), np.array(stderr), dict(t, metadata=json.dumps(meta))
+    t.meta = {**t.meta, "computed": meta}
+    return np.array(values), np.array(stderr), t
 
 
 def compute_table(model: str, name: str, quantity, axes: list, *, fixed=None, value_range=None,
@@ -163,7 +164,7 @@ def compute_table(model: str, name: str, quantity, axes: list, *, fixed=None, va
     if "F_avg" in qs:
         return _fresnel_table(model, name, qs, axl, fixed, value_range, encoding, layout, kw)
     values, stderr, t = _run(model, axl, qs, fixed, **kw)
-    meta = json.loads(t["metadata"])
+    meta = t.computed
     labels = qs                 # the channels; an RGB model's one quantity Q: Q.R, Q.G, Q.B
     if values.ndim > len(names) + (len(qs) > 1):
         labels = [f"{qs[0]}.{c}" for c in "RGB"]

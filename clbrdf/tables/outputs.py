@@ -24,7 +24,7 @@ class _Staged:
     def open(self, path: Path, mode: str = "wb"):
         path = Path(path)
         remove_stale(path)
-        fd, tmp = tempfile.mkstemp(dir=str(path.parent) or ".", prefix=_tmp_prefix(path),
+        fd, tmp = tempfile.mkstemp(dir=str(path.parent) or ".", prefix=tmp_prefix(path),
                                    suffix=".tmp")
         self.pairs.append((path, tmp))
         return os.fdopen(fd, mode, **({} if "b" in mode else {"newline": "", "encoding": "utf-8"}))
@@ -43,7 +43,7 @@ class _Staged:
         try:
             for path, _ in self.pairs:
                 if path.exists():
-                    b = path.with_name(_tmp_prefix(path) + "old.tmp")
+                    b = path.with_name(tmp_prefix(path) + "old.tmp")
                     if b.exists():
                         b.unlink()
                     os.link(path, b)
@@ -78,7 +78,7 @@ class _Staged:
         self.pairs = []
 
 
-def _tmp_prefix(path: Path, pid: int | None = None) -> str:
+def tmp_prefix(path: Path, pid: int | None = None) -> str:
     """Temporary files are .NAME.PID.XXXXXXXX.tmp beside NAME: a later run can tell whose they are."""
     return f".{path.name}.{os.getpid() if pid is None else pid}."
 
@@ -93,7 +93,7 @@ def remove_stale(path: Path) -> None:
         return
     for e in entries:
         pid = e.name[len(path.name) + 2:].split(".", 1)[0]
-        if pid.isdigit() and int(pid) != os.getpid() and not _alive(int(pid)):
+        if pid.isdigit() and int(pid) != os.getpid() and not alive(int(pid)):
             try:
                 e.unlink()
             except OSError:
@@ -104,7 +104,7 @@ def glob_escape(name: str) -> str:
     return glob.escape(name)
 
 
-def _alive(pid: int) -> bool:
+def alive(pid: int) -> bool:
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
@@ -112,6 +112,20 @@ def _alive(pid: int) -> bool:
     except PermissionError:
         return True
     return True
+
+
+def probe_directory(out) -> None:
+    """Before any work: the directory of ``out`` exists and takes new files (a probe file is
+    created and removed, which also catches read-only file systems). Raises ValueError."""
+    parent = Path(out).parent if str(Path(out).parent) else Path(".")
+    if not parent.is_dir():
+        raise ValueError(f"directory {str(parent)!r} does not exist")
+    try:
+        fd, probe = tempfile.mkstemp(dir=str(parent), prefix=tmp_prefix(Path(out)), suffix=".tmp")
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        raise ValueError(f"cannot write in directory {str(parent)!r}: {e.strerror or e}") from None
 
 
 def _sync_close(f):

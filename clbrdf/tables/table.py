@@ -1,43 +1,44 @@
-"""Albedo tables as a renderer stores them, with their lookup, and their files.
+"""``Table``: every table the tool makes, in one type.
 
-``Table``: one table (``clbrdf.layouts.compute_table``): axes in memory order (slowest first),
-one or more quantities (interleaved channels, last), the stored (encoded) values, per-cell
-standard errors and metadata. ``Table.lookup`` interpolates as the consumer does: multilinear in
-the continuous index of each axis, clamped to the table (nodes: index = u (N - 1); texel centres:
-index = u N - 1/2, the GPU's bilinear filter with clamp-to-edge), u the position of the
-coordinate on its axis (clbrdf.axes.unwarp; a list of values: piecewise linear in the value).
+A table is one or more quantities (``quantity``: channel labels, interleaved last) over axes in
+memory order (slowest first), as stored (``raw``, in its ``encoding``), with the standard error
+of every value, the samples per cell where refinement made them differ, metadata (``meta``:
+what it is and how it was computed) and, for a table of directional albedo E, its average
+E_avg over the parameter axes (``average``, a Table). ``albedo_table`` and ``make_layout``
+return them; ``save_tables`` and ``load_tables`` (clbrdf.tables.files) write and read them.
 
-Files (``save_tables``, ``load_tables``; written together: a kill leaves the old files or the
-new ones):
-- ``.npz``: per table NAME the stored array, ``NAME.stderr``, ``NAME.axis.AXIS`` and the
-  metadata (JSON) of every table;
-- ``.h``: a C header that compiles as C99, C++17, CUDA and OpenCL C (``clbrdf.export``);
-- ``.exr``: one part per table, one channel per quantity and ``QUANTITY.stderr`` (float32; the
-  leading axes stacked as rows), the metadata as a string attribute ``clbrdf``.
+``Table.lookup`` interpolates as the consumer does: multilinear in the continuous index of each
+axis, clamped to the table (nodes: index = u (N - 1); texel centres: index = u N - 1/2, the
+GPU's bilinear filter with clamp-to-edge), u the position of the coordinate on its axis
+(clbrdf.tables.axes.unwarp; a list of values: piecewise linear in the value).
+
+``t["E"]``, ``t["E_stderr"]``, ``t["alpha"]``, ``t["E_avg"]``: the named arrays (``keys()``);
+``t.to_xarray()``: an ``xarray.Dataset`` (``pip install 'clbrdf[xarray]'``).
 """
 from __future__ import annotations
 
+import csv
 import io
 import json
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..models.spec import ParameterError
-from .axes import unwarp
-from .cheader import c_header
-from .outputs import _tmp_prefix, remove_stale, write_together
-from .plain import check_output
+from .axes import MAPPED, unwarp
 
-FORMAT = "clbrdf-tables/1"
-SUFFIXES = (".npz", ".h", ".exr")
-ENCODINGS = ("float32", "float16", "unorm16")
+FORMAT = "clbrdf-tables/2"
+FORMATS_READ = ("clbrdf-tables/1", FORMAT)  # 1: the layout tables of clbrdf 0.1.0
+ENCODINGS = ("float32", "float16", "unorm16", "float64")
+DIRECTION_AXES = ("mu", "theta", "phi")
+CHANNELS = ("R", "G", "B")
 
 
 def encode(values: np.ndarray, encoding: str) -> np.ndarray:
     """The consumer's stored form of values in [0, 1] (float16 and unorm16 round to nearest)."""
+    if encoding == "float64":
+        return np.asarray(values, dtype=np.float64)
     if encoding == "float32":
         return values.astype(np.float32)
     if encoding == "float16":
@@ -57,12 +58,14 @@ def decode(raw: np.ndarray, encoding: str) -> np.ndarray:
 @dataclass
 class Table:
     name: str
-    axes: list                      # axis dicts (clbrdf.axes) with "values", memory order
-    quantity: list                  # channel names: ["E"], ["A", "B"], an RGB model's ["E.R", "E.G", "E.B"]
+    axes: list                      # axis dicts (clbrdf.tables.axes) with "values", memory order
+    quantity: list                  # channel labels: ["E"], ["A", "B", "E"], ["E.R", "E.G", "E.B"]
     raw: np.ndarray                 # stored values: shape of the axes (+ channels if > 1)
     stderr: np.ndarray              # standard error of each value before encoding
     encoding: str = "float32"
     meta: dict = field(default_factory=dict)
+    samples: np.ndarray | None = None   # samples per cell (axes shape) where refinement ran
+    average: "Table | None" = None      # E_avg over the parameter axes, for a table of E
 
     @property
     def values(self) -> np.ndarray:
@@ -77,6 +80,48 @@ class Table:
     def axis_names(self) -> list:
         return [a["name"] for a in self.axes]
 
+    @property
+    def computed(self) -> dict:
+        """How the values were computed (model, parameters, estimator, samples, device, ...)."""
+        return self.meta.get("computed", {})
+
+    # ---- named arrays ----
+    def groups(self) -> dict:
+        """{name: channel indices}: an RGB quantity's labels Q.R, Q.G, Q.B form one group Q."""
+        out: dict = {}
+        for i, q in enumerate(self.quantity):
+            g = q.rsplit(".", 1)[0] if q.rsplit(".", 1)[-1] in CHANNELS and "." in q else q
+            out.setdefault(g, []).append(i)
+        return out
+
+    def _channels(self, a, idx):
+        if len(self.quantity) == 1:
+            return a
+        return a[..., idx[0]] if len(idx) == 1 else a[..., idx]
+
+    def keys(self) -> list:
+        own = self.axis_names + [k for g in self.groups() for k in (g, g + "_stderr")]
+        if self.samples is not None:
+            own += [g + "_samples" for g in self.groups()]
+        return own + ([k for k in self.average.keys() if k not in own] if self.average else [])
+
+    def __getitem__(self, key: str) -> np.ndarray:
+        if key in self.axis_names:
+            return np.asarray(self.axes[self.axis_names.index(key)]["values"], dtype=np.float64)
+        groups = self.groups()
+        for suffix, arr in (("", None), ("_stderr", self.stderr), ("_samples", self.samples)):
+            g = key[:len(key) - len(suffix)] if suffix and key.endswith(suffix) else key
+            if (suffix == "" or key.endswith(suffix)) and g in groups and \
+                    (suffix != "_samples" or arr is not None):
+                return self._channels(self.values if arr is None else np.asarray(arr), groups[g])
+        if self.average is not None and key in self.average.keys():
+            return self.average[key]
+        raise KeyError(f"table {self.name} has no {key!r}: it has {', '.join(self.keys())}")
+
+    def __contains__(self, key) -> bool:
+        return key in self.keys()
+
+    # ---- lookup ----
     def index(self, axis: int, x) -> np.ndarray:
         """The continuous, clamped index of coordinate x on axis ``axis``."""
         a = self.axes[axis]
@@ -132,18 +177,58 @@ class Table:
             out += w[..., None] * data[tuple(sel)]
         return out[..., 0] if nc == 1 else out
 
+    # ---- description ----
     def to_json(self) -> dict:
         """Metadata: axes (without values), quantity, encoding, and how it was computed."""
         return {"name": self.name, "quantity": self.quantity, "encoding": self.encoding,
                 "shape": list(self.shape),
                 "axes": [{k: v for k, v in a.items() if k != "values"} for a in self.axes],
-                "stderr_max": float(np.max(self.stderr)) if self.stderr.size else 0.0,
+                "stderr_max": float(np.max(self.stderr)) if np.size(self.stderr) else 0.0,
                 **{k: v for k, v in self.meta.items() if k not in ("name", "quantity",
                                                                     "encoding")}}
 
+    def __repr__(self):
+        avg = f", average {self.average.name}" if self.average is not None else ""
+        return (f"Table({self.name!r}, {', '.join(self.quantity)} over "
+                f"{' x '.join(f'{n} ({len(a)})' for n, a in zip(self.axis_names, (a['values'] for a in self.axes)))}"
+                f", {self.encoding}{avg})")
+
+    def to_xarray(self):
+        """An ``xarray.Dataset``: each quantity and its ``_stderr`` (and ``_samples``) as
+        variables over named dimensions (``channel`` for an RGB quantity), the axes as
+        coordinates with their spacing, placement and mapping as attributes, the average's
+        variables over its own axes, and the metadata as JSON in ``attrs["clbrdf"]``."""
+        try:
+            import xarray as xr
+        except ImportError:
+            raise ImportError("Table.to_xarray needs xarray: pip install 'clbrdf[xarray]'") \
+                from None
+        data, coords = {}, {}
+        for t in [self] + ([self.average] if self.average is not None else []):
+            dims = t.axis_names
+            for a in t.axes:
+                attrs = {k: (json.dumps(v) if isinstance(v, (list, dict)) or v is None else v)
+                         for k, v in a.items() if k not in ("values", "name")}
+                if a["name"] in MAPPED:
+                    attrs["mapping"] = MAPPED[a["name"]][1]
+                coords[a["name"]] = (a["name"], np.asarray(a["values"], np.float64), attrs)
+            for g, idx in t.groups().items():
+                multi = len(idx) > 1
+                d = dims + (["channel"] if multi else [])
+                if multi:
+                    coords["channel"] = ("channel", [t.quantity[i].rsplit(".", 1)[1] for i in idx])
+                data[g] = (d, t[g])
+                data[g + "_stderr"] = (d, t[g + "_stderr"])
+                if t.samples is not None:
+                    data[g + "_samples"] = (dims, np.asarray(t.samples))
+        return xr.Dataset(data, coords=coords,
+                          attrs={"clbrdf": json.dumps(self.to_json(), default=str),
+                                 "name": self.name, "encoding": self.encoding})
+
     @staticmethod
     def load(path, name: str | None = None) -> "Table":
-        """The table ``name`` of a file written by ``save_tables`` (the only one if not given)."""
+        """The table ``name`` of a file the tool wrote (``load_tables``; the only one if not
+        given: a table's average comes with it)."""
         tables = load_tables(path)
         if name is None:
             if len(tables) != 1:
@@ -155,40 +240,73 @@ class Table:
         return tables[name]
 
 
-# ---------------------------------------------------------------------------------------------
-# files
+def from_albedo(arrays: dict, meta: dict) -> Table:
+    """The Table of ``albedo_table``'s arrays (E, E_stderr, one array per axis, E_samples; A,
+    B with ``split``; E_avg, E_avg_stderr, E_avg_samples ...) and its metadata: the table "E"
+    (quantities E; A, B, E when split; E.R, E.G, E.B for an RGB model) with its average
+    "E_avg". Also reads the plain .npz tables of clbrdf 0.1.0."""
+    names = [a for a in meta["axes"] if a != "channel"]
+    rgb = "channel" in meta["axes"]
+    specs = {a["name"]: a for a in meta.get("axis_specs", [])}
 
-def _npz_bytes(tables: dict) -> bytes:
-    arrays = {}
-    meta = {"format": FORMAT, "tables": {}}
-    for name, t in tables.items():
-        arrays[name] = t.raw
-        arrays[f"{name}.stderr"] = np.asarray(t.stderr, dtype=np.float64)
-        for a in t.axes:
-            arrays[f"{name}.axis.{a['name']}"] = np.asarray(a["values"], dtype=np.float64)
-        meta["tables"][name] = t.to_json()
-    buf = io.BytesIO()
-    np.savez_compressed(buf, metadata=np.asarray(json.dumps(meta)), **arrays)
-    return buf.getvalue()
+    def axis(n):
+        base = specs.get(n, {"name": n, "spacing": meta.get("spacing", {}).get(n, "list")})
+        return dict(base, values=np.asarray(arrays[n], np.float64).tolist())
+    qs = ["A", "B", "E"] if "split" in meta else ["E"]
+
+    def table(name, axes, suffix):
+        if len(qs) > 1:
+            labels = [q + suffix for q in qs]
+            raw = np.stack([np.asarray(arrays[q + suffix], np.float64) for q in qs], -1)
+            err = np.stack([np.asarray(arrays[q + suffix + "_stderr"], np.float64) for q in qs], -1)
+        else:
+            labels = [f"E{suffix}.{c}" for c in CHANNELS] if rgb else ["E" + suffix]
+            raw = np.asarray(arrays["E" + suffix], np.float64)
+            err = np.asarray(arrays["E" + suffix + "_stderr"], np.float64)
+        s = arrays.get("E" + suffix + "_samples")
+        return Table(name=name, axes=axes, quantity=labels, raw=raw, stderr=err,
+                     encoding="float64", samples=None if s is None else np.asarray(s))
+    t = table("E", [axis(n) for n in names], "")
+    t.meta = {"computed": meta}
+    if "E_avg" in arrays or "A_avg" in arrays:
+        t.average = table("E_avg", [axis(n) for n in names if n not in DIRECTION_AXES], "_avg")
+        t.average.meta = {"average_of": "E", "how": meta.get("E_avg", "")}
+    return t
+
+
+# ---------------------------------------------------------------------------------------------
+# reading the files the tool writes (clbrdf.tables.files writes them)
+
+def _tables_from_json(meta: dict, array) -> dict:
+    """{name: Table} from a file's metadata and ``array(key)``; averages attached to their table."""
+    out = {}
+    for name, m in meta["tables"].items():
+        axes = [dict(a, values=np.asarray(array(f"{name}.axis.{a['name']}"), np.float64).tolist())
+                for a in m["axes"]]
+        out[name] = Table(name=name, axes=axes, quantity=m["quantity"], raw=array(name),
+                          stderr=array(f"{name}.stderr"), encoding=m["encoding"],
+                          samples=array(f"{name}.samples") if m.get("samples") else None,
+                          meta={k: v for k, v in m.items() if k not in (
+                              "axes", "shape", "stderr_max", "samples", "average")})
+    for name, t in list(out.items()):
+        of = t.meta.get("average_of")
+        if of in out:
+            out[of].average = out.pop(name)
+    return out
 
 
 def _load_npz(path) -> dict:
     with np.load(path, allow_pickle=False) as z:
         meta = json.loads(str(z["metadata"]))
-        if not isinstance(meta, dict) or meta.get("format") != FORMAT:
-            raise ParameterError(f"{str(path)!r} is not a clbrdf layout table file (format "
-                                 f"{FORMAT}); plain tables load with numpy.load")
-        out = {}
-        for name, m in meta["tables"].items():
-            axes = [dict(a, values=z[f"{name}.axis.{a['name']}"].tolist()) for a in m["axes"]]
-            out[name] = Table(name=name, axes=axes, quantity=m["quantity"], raw=z[name],
-                              stderr=z[f"{name}.stderr"], encoding=m["encoding"],
-                              meta={k: v for k, v in m.items()
-                                    if k not in ("axes", "shape", "stderr_max")})
-        return out
+        if isinstance(meta, dict) and meta.get("format") in FORMATS_READ:
+            return _tables_from_json(meta, lambda k: z[k])
+        if isinstance(meta, dict) and "axes" in meta and "E" in z.files:   # 0.1.0 plain table
+            return {"E": from_albedo({k: z[k] for k in z.files if k != "metadata"}, meta)}
+        raise ParameterError(f"{str(path)!r} is not a clbrdf table file (its metadata has no "
+                             f"format {FORMAT})")
 
 
-def _openexr():
+def openexr():
     try:
         import OpenEXR
     except ImportError:
@@ -197,113 +315,83 @@ def _openexr():
     return OpenEXR
 
 
-def _exr_bytes(tables: dict, path: Path) -> bytes:
-    OpenEXR = _openexr()
-    parts = []
-    # a multi-part file shares one display window: the largest table's; each part's data
-    # window is its own size
-    dims = [(int(np.prod(t.shape[:-1])) if len(t.shape) > 1 else 1, t.shape[-1])
-            for t in tables.values()]
-    display = (np.array([0, 0], np.int32), np.array([max(w for _, w in dims) - 1,
-                                                     max(h for h, _ in dims) - 1], np.int32))
-    for name, t in tables.items():
-        vals = np.asarray(t.values, dtype=np.float32)
-        errs = np.asarray(t.stderr, dtype=np.float32)
-        nc = len(t.quantity)
-        if nc == 1:
-            vals, errs = vals[..., None], errs[..., None]
-        shape = t.shape
-        rows = int(np.prod(shape[:-1])) if len(shape) > 1 else 1
-        chans = {}
-        for c, q in enumerate(t.quantity):
-            chans[q] = np.ascontiguousarray(vals[..., c].reshape(rows, shape[-1]))
-            chans[f"{q}.stderr"] = np.ascontiguousarray(errs[..., c].reshape(rows, shape[-1]))
-        header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
-                  "displayWindow": display,
-                  "dataWindow": (np.array([0, 0], np.int32),
-                                 np.array([shape[-1] - 1, rows - 1], np.int32)),
-                  "clbrdf": json.dumps({"format": FORMAT, "table": t.to_json(),
-                                        "axes_values": {a["name"]: a["values"] for a in t.axes}})}
-        parts.append(OpenEXR.Part(header, chans, name))
-    # OpenEXR writes to a path: a temporary name beside the target (.NAME.PID.*.tmp, which a
-    # later write removes if this process was killed: tables.remove_stale), read back as bytes
-    remove_stale(path)
-    tmp = path.with_name(_tmp_prefix(path) + "exr-staging.tmp")
-    try:
-        OpenEXR.File(parts).write(str(tmp))
-        return tmp.read_bytes()
-    finally:
-        tmp.unlink(missing_ok=True)
-
-
 def _load_exr(path) -> dict:
-    OpenEXR = _openexr()
-    out = {}
+    OpenEXR = openexr()
+    meta, arrays = {"format": FORMAT, "tables": {}}, {}
     with OpenEXR.File(str(path), separate_channels=True) as f:
         for part in f.parts:
             m = json.loads(part.header["clbrdf"])
             tm = m["table"]
-            axes = [dict(a, values=m["axes_values"][a["name"]]) for a in tm["axes"]]
-            shape = tuple(tm["shape"])
+            name, shape = tm["name"], tuple(tm["shape"])
             vals = [np.asarray(part.channels[q].pixels, np.float64).reshape(shape)
                     for q in tm["quantity"]]
             errs = [np.asarray(part.channels[f"{q}.stderr"].pixels, np.float64).reshape(shape)
                     for q in tm["quantity"]]
             v = np.stack(vals, -1) if len(vals) > 1 else vals[0]
-            s = np.stack(errs, -1) if len(errs) > 1 else errs[0]
-            raw = encode(v, tm["encoding"]) if tm["encoding"] != "float32" else v.astype(np.float32)
-            out[tm["name"]] = Table(name=tm["name"], axes=axes, quantity=tm["quantity"], raw=raw,
-                                   stderr=s, encoding=tm["encoding"],
-                                   meta={k: x for k, x in tm.items()
-                                         if k not in ("axes", "shape", "stderr_max")})
-    return out
+            arrays[name] = encode(v, tm["encoding"]) if tm["encoding"] not in (
+                "float32", "float64") else v.astype(np.float32)
+            arrays[f"{name}.stderr"] = np.stack(errs, -1) if len(errs) > 1 else errs[0]
+            for a, vs in m["axes_values"].items():
+                arrays[f"{name}.axis.{a}"] = vs
+            if "samples" in part.channels:
+                arrays[f"{name}.samples"] = np.asarray(part.channels["samples"].pixels,
+                                                       np.float64).reshape(shape)
+            meta["tables"][name] = tm
+    return _tables_from_json(meta, arrays.__getitem__)
 
 
-def check_out(out) -> Path:
-    """Before any work: a known suffix, an existing directory that takes new files."""
-    out = Path(out)
-    if out.suffix.lower() not in SUFFIXES:
-        raise ParameterError(f"--out {str(out)!r}: unknown suffix {out.suffix!r}: these tables "
-                             f"are written as {', '.join(SUFFIXES)}")
-    if out.is_dir():
-        raise ParameterError(f"--out {str(out)!r} is a directory; give a file name")
-    try:   # check_output knows the plain tables' suffixes: probe the directory as .npz
-        check_output(out.with_suffix(".npz"))
-    except ValueError as e:
-        raise ParameterError(f"--out {str(out)!r}: {e}") from None
-    if out.exists() and not os.access(out, os.W_OK):
-        raise ParameterError(f"--out {str(out)!r} is not writable")
-    if out.suffix.lower() == ".exr":
-        _openexr()              # before any work
-    return out
+def _load_csv(path) -> dict:
+    """A .csv the tool wrote: its first line ``# clbrdf-tables/2 {table json}``, then a header
+    and one row per cell (axes, then each channel and its stderr, then samples)."""
+    text = Path(path).read_text()
+    first, _, rest = text.partition("\n")
+    if not first.startswith(f"# {FORMAT} "):
+        raise ParameterError(f"{str(path)!r} is not a clbrdf table file (its first line is not "
+                             f"'# {FORMAT} ...')")
+    m = json.loads(first[len(FORMAT) + 3:])
+    rows = list(csv.reader(io.StringIO(rest)))
+    header, rows = rows[0], np.asarray(rows[1:], dtype=np.float64)
+    col = {h: rows[:, i] for i, h in enumerate(header)}
+    shape = tuple(m["shape"])
+    name = m["name"]
 
-
-def save_tables(tables: dict, out, *, prefix: str = "clbrdf") -> list:
-    """Write {name: Table} to ``out`` (.npz, .h or .exr, module docstring); returns the paths."""
-    out = check_out(out)
-    suffix = out.suffix.lower()
-    if suffix == ".npz":
-        data = _npz_bytes(tables)
-    elif suffix == ".h":
-        data = c_header(tables, prefix=prefix, guard=out.name)
-    else:
-        data = _exr_bytes(tables, out)
-    write_together({out: data})
-    return [out]
+    def grid(key):
+        return col[key].reshape(shape)
+    arrays = {name: np.stack([grid(q) for q in m["quantity"]], -1) if len(m["quantity"]) > 1
+              else grid(m["quantity"][0])}
+    arrays[name] = encode(arrays[name], m["encoding"]) if m["encoding"] != "float32" else \
+        arrays[name].astype(np.float32)
+    arrays[f"{name}.stderr"] = np.stack([grid(q + "_stderr") for q in m["quantity"]], -1) \
+        if len(m["quantity"]) > 1 else grid(m["quantity"][0] + "_stderr")
+    for d, a in enumerate(m["axes"]):
+        vals = rows[:, header.index(a["name"])].reshape(shape)
+        arrays[f"{name}.axis.{a['name']}"] = np.moveaxis(vals, d, 0).reshape(shape[d], -1)[:, 0]
+    if m.get("samples"):
+        arrays[f"{name}.samples"] = grid("samples")
+    return _tables_from_json({"tables": {name: m}}, arrays.__getitem__)
 
 
 def load_tables(path) -> dict:
-    """{name: Table} from a .npz or .exr written by ``save_tables``."""
+    """{name: Table} from a file the tool wrote: .npz (this version's and 0.1.0's both formats),
+    .exr or .csv (a table's averages come back as its ``average``; a .h is for C)."""
     path = Path(path)
     suffix = path.suffix.lower()
-    if suffix not in (".npz", ".exr"):
-        raise ParameterError(f"{str(path)!r}: tables load from .npz or .exr (a .h is for C)")
+    readers = {".npz": _load_npz, ".exr": _load_exr, ".csv": _load_csv}
+    if suffix not in readers:
+        raise ParameterError(f"path={str(path)!r}: tables load from {', '.join(readers)} "
+                             f"(a .h is for C)")
     if not path.is_file():
-        raise ParameterError(f"{str(path)!r} does not exist or is not a file")
+        raise ParameterError(f"path={str(path)!r} does not exist or is not a file")
     try:
-        return _load_npz(path) if suffix == ".npz" else _load_exr(path)
+        tables = readers[suffix](path)
     except ParameterError:
         raise
     except Exception as e:      # empty, truncated or foreign files: zipfile, OpenEXR, JSON, keys
         raise ParameterError(f"{str(path)!r} is not a readable clbrdf table file "
                              f"({type(e).__name__}: {e})") from None
+    if suffix == ".csv":        # a table's average is a file of its own beside it
+        avg = path.with_name(path.name[:-4] + ".avg.csv")
+        if avg.is_file() and not path.name.endswith(".avg.csv"):
+            for t in tables.values():
+                t.average = next(iter(load_tables(avg).values()))
+    return tables
