@@ -4,13 +4,12 @@ The public namespace. The package's layers, each importing only those below it
 (tests/test_architecture.py): ``cli`` -> ``studies`` -> ``tables`` -> ``api`` -> ``runtime`` ->
 ``ref`` -> ``models``; the kernels (``clbrdf.kernels``, C headers) under all of them.
 """
-from pathlib import Path as _Path
-
 from .api.albedo import AlbedoResult, albedo, albedo_avg, fresnel_avg
 from .api.model import Model, model
 from .api.useless import UselessEstimatorWarning
 from .models import MODELS, presets
 from .models.spec import ParameterError
+from .runtime.build import get_include
 from .runtime.device import DeviceError, get_device, list_devices
 from .runtime.launch import WidthFallbackWarning
 from .studies.check import check
@@ -20,13 +19,6 @@ from .tables.files import save_tables
 from .tables.layouts import make_layout
 from .tables.table import Table, load_tables
 from .version import __version__
-
-
-def get_include() -> str:
-    """The directory of the C headers (``clbrdf.h`` and the model headers) for C, C++, CUDA and
-    OpenCL builds: ``cc -I$(clbrdf --include)``, like ``numpy.get_include()``."""
-    return str(_Path(__file__).resolve().parent / "kernels")
-
 
 __all__ = ["AlbedoResult", "DeviceError", "MODELS", "Model", "ParameterError", "Table",
            "TargetStderrWarning", "UselessEstimatorWarning", "WidthFallbackWarning",

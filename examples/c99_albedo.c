@@ -1,6 +1,6 @@
 /* Directional albedo of GGX by importance sampling, in plain C99 with clbrdf's headers: no OpenCL.
  *
- *     gcc -std=c99 -O2 -I kernels examples/c99_albedo.c -lm -o c99_albedo
+ *     gcc -std=c99 -O2 -I$(clbrdf --include) examples/c99_albedo.c -lm -o c99_albedo
  *     ./c99_albedo [alpha mu samples seed]
  *
  * E(wo) = mean of the sample weights f cos(theta_i) / pdf. The uniform numbers of sample k are

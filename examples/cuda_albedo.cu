@@ -1,6 +1,6 @@
 /* Directional albedo of GGX in a CUDA kernel with clbrdf's headers.
  *
- *     nvcc -std=c++17 -O2 -I kernels examples/cuda_albedo.cu -o cuda_albedo
+ *     nvcc -std=c++17 -O2 -I$(clbrdf --include) examples/cuda_albedo.cu -o cuda_albedo
  *     ./cuda_albedo [alpha mu samples seed]
  *
  * Thread g sums the weights of samples [g B, g B + B); the host adds the partial sums in double.

@@ -2,7 +2,7 @@
  * (Debian: ocl-icd-opencl-dev) and clbrdf's headers: no Python.
  *
  *     gcc -std=c99 -O2 examples/opencl_albedo.c -lOpenCL -o opencl_albedo
- *     ./opencl_albedo KERNELS_DIR [alpha mu samples seed]
+ *     ./opencl_albedo $(clbrdf --include) [alpha mu samples seed]
  *
  * Work-item g sums the weights of samples [g B, g B + B); the host adds the partial sums in
  * double. The uniform numbers are clbrdf_random2(k, 0, 0, seed), as in `clbrdf albedo ggx

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Build and run every example this machine can run, each result beside the Python package's.
 #
-#   bash examples/run.sh            (after bash run.sh: uses .venv, or CLBRDF_PYTHON)
+#   bash examples/run.sh        (after bash run.sh: uses .venv, or CLBRDF_PYTHON: any Python
+#                                    with clbrdf installed; the headers are its `clbrdf --include`)
 #
 # c99_albedo (gcc), opencl_albedo (gcc and the OpenCL ICD loader: Debian ocl-icd-opencl-dev),
 # cuda_albedo (nvcc; run only where a CUDA device answers), energy_compensation (gcc and a
@@ -11,16 +12,18 @@
 # header's lookup with clbrdf.Table.lookup to the 6 decimals the example prints. Exit 1 on any disagreement; an example this
 # machine cannot build or run is reported as skipped.
 set -euo pipefail
-cd "$(dirname "${BASH_SOURCE[0]}")/.."
-PY=${CLBRDF_PYTHON:-.venv/bin/python}
+ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+PY=${CLBRDF_PYTHON:-$ROOT/.venv/bin/python}
 ALPHA=0.3 MU=0.5 N=1048576 SEED=7 TOL=1e-5
 OUT=$(mktemp -d)
+cd "$OUT"           # Python runs outside the checkout: the installed clbrdf, not ./clbrdf
+INC=$("$PY" -m clbrdf --include)     # the C headers of the installed package
 trap 'rm -rf "$OUT"' EXIT
 WARN=(-Wall -Wextra -Werror)
 fail=0
 
 python_albedo() {
-    "$PY" -m clbrdf.cli albedo ggx -p alpha=$ALPHA --mu $MU --estimator brdf --samples $N \
+    "$PY" -m clbrdf albedo ggx -p alpha=$ALPHA --mu $MU --estimator brdf --samples $N \
         --seed $SEED --width 1 --json | "$PY" -c 'import json, sys; print(json.load(sys.stdin)["albedo"][0])'
 }
 
@@ -37,15 +40,15 @@ ref=$(python_albedo)
 echo "GGX alpha $ALPHA, mu $MU, $N samples, seed $SEED (python: clbrdf albedo, brdf, Philox, width 1)"
 
 if command -v gcc >/dev/null; then
-    gcc -std=c99 "${WARN[@]}" -pedantic -O2 -I kernels examples/c99_albedo.c -lm -o "$OUT/c99_albedo"
+    gcc -std=c99 "${WARN[@]}" -pedantic -O2 -I "$INC" "$ROOT"/examples/c99_albedo.c -lm -o "$OUT/c99_albedo"
     compare c99_albedo "$("$OUT/c99_albedo" $ALPHA $MU $N $SEED | cut -d' ' -f1)" "$ref" $TOL
 else
     echo "c99_albedo             skipped: no gcc"
 fi
 
 if command -v gcc >/dev/null && [ -f /usr/include/CL/cl.h ]; then
-    gcc -std=c99 -Wall -Wextra -Werror -O2 examples/opencl_albedo.c -lOpenCL -lm -o "$OUT/opencl_albedo"
-    line=$("$OUT/opencl_albedo" kernels $ALPHA $MU $N $SEED)
+    gcc -std=c99 -Wall -Wextra -Werror -O2 "$ROOT"/examples/opencl_albedo.c -lOpenCL -lm -o "$OUT/opencl_albedo"
+    line=$("$OUT/opencl_albedo" "$INC" $ALPHA $MU $N $SEED)
     compare "opencl_albedo" "${line%% *}" "$ref" $TOL
     echo "                       (device: ${line#* })"
 else
@@ -53,7 +56,7 @@ else
 fi
 
 if command -v nvcc >/dev/null; then
-    nvcc -std=c++17 -O2 -I kernels examples/cuda_albedo.cu -o "$OUT/cuda_albedo"
+    nvcc -std=c++17 -O2 -I "$INC" "$ROOT"/examples/cuda_albedo.cu -o "$OUT/cuda_albedo"
     if line=$("$OUT/cuda_albedo" $ALPHA $MU $N $SEED 2>/dev/null); then
         compare "cuda_albedo" "${line%% *}" "$ref" $TOL
         echo "                       (device: ${line#* })"
@@ -65,15 +68,15 @@ else
 fi
 
 if command -v gcc >/dev/null; then
-    "$PY" -m clbrdf.cli table --layout cycles --samples 16384 --out "$OUT/ggx_E.h" \
+    "$PY" -m clbrdf table --layout cycles --samples 16384 --out "$OUT/ggx_E.h" \
         --out "$OUT/ggx_E.npz" >/dev/null
-    gcc -std=c99 -Wall -Wextra -Werror -I "$OUT" examples/energy_compensation.c -lm \
+    gcc -std=c99 -Wall -Wextra -Werror -I "$OUT" "$ROOT"/examples/energy_compensation.c -lm \
         -o "$OUT/energy_compensation"
     line=$("$OUT/energy_compensation")
     e=$(echo "$line" | sed 's/.*: E \([0-9.]*\),.*/\1/')
     want=$("$PY" -c "
-from clbrdf.table import load_tables
-print(load_tables('$OUT/ggx_E.npz')['table_ggx_E'].lookup(0.5, 0.75))")
+import clbrdf
+print(clbrdf.Table.load('$OUT/ggx_E.npz', 'table_ggx_E').lookup(0.5, 0.75))")
     compare "energy_compensation" "$e" "$want" 1.5e-6     # it prints 6 decimals
     echo "                       ($line)"
 fi

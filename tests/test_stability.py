@@ -28,7 +28,7 @@ def test_sweeps_cover_every_model_within_range():
 
 
 def test_shipped_map_covers_every_cell():
-    rows = S._read_csv(U.MAP)
+    rows = U.read_csv(U.MAP)
     have = {(r["model"], r["sweep"], r["value"], r["mu"], r["estimator"], r["sampler"],
              r["precision"]) for r in rows}
     from clbrdf.models.spec import MU_MIN
@@ -59,7 +59,7 @@ def small_map(tmp_path_factory):
 
 
 def test_small_map_files_and_flags(small_map):
-    rows = S._read_csv(small_map / "stability.csv")
+    rows = U.read_csv(small_map / "stability.csv")
     assert {r["model"] for r in rows} == {"ggx"}
     assert (small_map / "ggx.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     text = (small_map / "README.md").read_text()
@@ -177,7 +177,7 @@ def test_low_smooth_reference_at_grazing(b):
 
 def test_shipped_map_claims():
     """What README.md and docs/stability/findings.md say of the shipped map."""
-    rows = S._read_csv(U.MAP)
+    rows = U.read_csv(U.MAP)
     assert not any(r["nonfinite"] for r in rows)
     assert not any(r["precision_loss"] for r in rows)
     with open(U.MAP.resolve().parent / "checks.csv") as f:
@@ -217,7 +217,7 @@ def test_map_reproduces_with_another_seed(name, monkeypatch):
     for r in rows:
         if r["biased"] and r["efficiency"] >= 10 * U.USELESS:
             assert name == "schlick" and r["mu"] <= 1e-6 and r["value"] <= 1e-3, r
-    shipped = {S._key(r) + (r["precision"],): r["useless"] for r in S._read_csv(U.MAP)
+    shipped = {S._key(r) + (r["precision"],): r["useless"] for r in U.read_csv(U.MAP)
                if r["model"] == name}
     same = np.mean([shipped[S._key(r) + (r["precision"],)] == r["useless"] for r in rows])
     assert same >= 0.9, same
@@ -228,7 +228,7 @@ def test_stability_chart_title_fits_every_model():
     figure's width. Rendered from the shipped map, every model: no text cut off."""
     from pathlib import Path
     from figures import text_boxes
-    rows = S._read_csv(Path(__file__).parent.parent / "docs/stability/stability.csv")
+    rows = U.read_csv(Path(__file__).parent.parent / "docs/stability/stability.csv")
     width = {}
     for r in rows:
         width.setdefault(r["model"], set()).add((r["estimator"], r["sampler"]))

@@ -27,6 +27,7 @@ from ..api.model import PRECISIONS, Model
 from ..models import MODELS, get_spec, presets
 from ..models.spec import ParameterError, check_directions, check_int
 from ..runtime import probe
+from ..runtime.build import get_include
 from ..runtime.device import (
     NO_DEVICE_HELP,
     DeviceError,
@@ -81,6 +82,14 @@ class _Once(argparse.Action):
                          f"{values}); give it once")
         setattr(namespace, f"_seen_{self.dest}", True)
         setattr(namespace, self.dest, values)
+
+
+class _Include(argparse.Action):
+    """--include: print the C header directory and exit (as --version does)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(get_include())
+        parser.exit()
 
 
 class _Parser(argparse.ArgumentParser):
@@ -862,6 +871,9 @@ def build_parser() -> argparse.ArgumentParser:
                   epilog="Exit codes: 0 ok, 2 bad input, 3 no usable OpenCL device, 4 a check failed "
                          "(clbrdf check), 1 other errors.")
     top.add_argument("--version", action="version", version=f"clbrdf {__version__}")
+    top.add_argument("--include", action=_Include, nargs=0,
+                     help="print the directory of the C headers (clbrdf.h and the model "
+                          "headers) for C, C++, CUDA and OpenCL builds: cc -I$(clbrdf --include)")
     sub = top.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
 

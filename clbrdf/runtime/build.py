@@ -28,10 +28,16 @@ def kernel_dir() -> Path:
             return p
     except (ModuleNotFoundError, TypeError):
         pass
-    p = Path(__file__).resolve().parent.parent / "kernels"
+    p = Path(__file__).resolve().parents[2] / "kernels"        # a source checkout
     if (p / "common.h").exists():
         return p
     raise FileNotFoundError("clbrdf kernel sources not found (expected clbrdf/kernels or ./kernels)")
+
+
+def get_include() -> str:
+    """The directory of the C headers (``clbrdf.h`` and the model headers) for C, C++, CUDA and
+    OpenCL builds: ``cc -I$(clbrdf --include)``, like ``numpy.get_include()``."""
+    return str(kernel_dir())
 
 
 @lru_cache(maxsize=None)

@@ -124,8 +124,8 @@ def ref_version(name: str) -> str:
     import hashlib
     import json
     spec = get_spec(name)
-    here = Path(__file__).parent
-    files = dict.fromkeys([here / "quadrature.py", here / "ref" / "__init__.py",
+    here = Path(__file__).resolve().parents[1]
+    files = dict.fromkeys([here / "ref" / "quadrature.py", here / "ref" / "__init__.py",
                            here / "ref" / "microfacet.py", here / "ref" / "distributions.py",
                            here / "ref" / f"{spec.ref}.py"])
     h = hashlib.sha1()
