@@ -171,7 +171,7 @@ def test_chart_and_files_of_every_axis_kind(case, tmp_path):
     """The chart has one row per channel of an RGB table and says at which value of further
     axes it is drawn; .npz, .csv and .avg.csv are written for every kind of axis (phi included:
     E_avg has no phi axis)."""
-    from clbrdf.cli import _table_summary
+    from clbrdf.cli.tables import _table_summary
     from clbrdf.tables import chart, files
     name, axes, fixed = CASES[case]
     t = albedo_table(name, axes, samples=256, **fixed)

@@ -1,0 +1,276 @@
+"""Commands that write tables: ``table`` (plain and ``--layout``), ``furnace``, ``layouts``."""
+from __future__ import annotations
+
+import contextlib
+import json
+import shutil
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..models.spec import ParameterError
+from ..studies.furnace import white_furnace
+from ..tables.axes import parse_axis
+from ..tables.checkpoint import checkpoint
+from ..tables.compute import albedo_table, table_axes
+from ..tables.files import check_out, save_tables
+from ..tables.layouts import (
+    get_layout,
+    layouts,
+    layouts as _layouts,
+    make_layout,
+)
+from ..tables.table import load_tables
+from .common import (
+    Terminated,
+    c_name,
+    choose_estimator,
+    dev_parent,
+    model_arg,
+    model_for,
+    no_resume,
+    note,
+    parse_params,
+    quad_args,
+    quote,
+    sampling_args,
+    spec_of,
+    target_args,
+)
+
+
+def cmd_furnace(args) -> int:
+    path = Path(args.file)
+    if not path.is_file():
+        raise ParameterError(f"FILE {args.file!r} does not exist")
+    tables = load_tables(path)
+    r = white_furnace(tables, samples=args.samples, device=args.device)
+    if args.json:
+        print(json.dumps({k: np.asarray(v).tolist() for k, v in r.items()}))
+        return 0
+    kc = "kulla_conty" in r
+    print(f"white furnace of {path.name}: albedo before and after compensation "
+          f"({args.samples} Sobol samples per E_ss)")
+    print(f"{'r':>5} {'mu':>5} {'E_ss':>9} {'+-':>8} {'Turquin':>9}" + (f" {'Kulla-Conty':>12}" if kc else ""))
+    for idx in np.ndindex(r["r"].shape):
+        line = (f"{r['r'][idx]:5.2f} {r['mu'][idx]:5.2f} {r['E_ss'][idx]:9.6f} "
+                f"{r['E_ss_stderr'][idx]:8.1e} {r['turquin'][idx]:9.6f}")
+        if kc:
+            line += f" {r['kulla_conty'][idx]:12.6f}"
+        print(line)
+    return 0
+
+
+def cmd_layouts(args) -> int:
+    all_ = layouts()
+    if args.json:
+        print(json.dumps(all_, indent=1))
+        return 0
+    for name, lay in all_.items():
+        print(f"{name}: {lay['consumer']}")
+        for t in lay["tables"]:
+            q = t["quantity"] if isinstance(t["quantity"], str) else ", ".join(
+                x if isinstance(x, str) else f"{x.get('label', x['quantity'])} ({x['model']})"
+                for x in t["quantity"])
+            print(f"    {t['name']}: {q} over {' x '.join(t['axes'])} "
+                  f"({lay.get('encoding', 'float32')})")
+        print(f"    source: {lay['source']}")
+    return 0
+
+
+@contextlib.contextmanager
+def _resumable(args, out: Path):
+    """The table's computations checkpointed beside its first output (clbrdf.checkpoint), so
+    that a killed run continues with --resume; the checkpoint goes once the files are written."""
+    where = out.with_name(f".{out.name}.resume")
+    job = {k: v for k, v in sorted(vars(args).items())
+           if k not in ("resume", "argv", "func", "command") and not callable(v)}
+    try:
+        with checkpoint(where, json.loads(json.dumps(job, default=str)),
+                        resume=args.resume) as ck:
+            yield ck
+    except (KeyboardInterrupt, Terminated):
+        print(f"clbrdf table: stopped; finished chunks are kept in {where}; continue with the "
+              f"same command and --resume", file=sys.stderr)
+        raise
+    shutil.rmtree(where, ignore_errors=True)
+
+
+def _layout_table(args, outs) -> int:
+    cmd = " ".join(["clbrdf"] + [quote(a) for a in args.argv])
+    for o in outs:
+        check_out(o)
+    lay = get_layout(args.layout)
+    given = any(a in ("--samples", "-n") or a.startswith(("--samples=", "-n")) for a in args.argv)
+    samples = args.samples if given else lay.get("samples", 1 << 16)
+    why = choose_estimator(args)          # brdf with Sobol points unless --estimator
+    est = args.estimator
+    model_for(lay["model"], args, dict(lay.get("fixed", {})))      # no device: fail before work
+    t0 = time.perf_counter()
+    with _resumable(args, outs[0]):
+        # the user's --estimator for every channel; without it, a channel of another model
+        # keeps the layout's choice (Filament's cloth: mis)
+        tables = make_layout(args.layout, samples=samples,
+                             estimator=None if why and est != "quadrature" else est,
+                             seed=args.seed,
+                             qmc=args.qmc, precision=args.precision, device=args.device,
+                             width=args.width, progress=True, command=no_resume(cmd),
+                             **quad_args(args), **target_args(args))
+        seconds = time.perf_counter() - t0
+        written = save_tables(tables, outs, prefix=c_name(args.layout))
+    for name, t in tables.items():
+        print(f"{name}: {', '.join(t.quantity)} {' x '.join(str(n) for n in t.shape)} "
+              f"({t.encoding}), largest stderr {float(t.stderr.max()):.2g}")
+    how = (f"quadrature (tol {next(iter(tables.values())).meta['computed'].get('tol')})"
+           if est == "quadrature" else
+           f"{samples} samples per cell, {est}{' + qmc' if args.qmc else ''}")
+    print(f"layout {args.layout}: {how}, {seconds:.1f} s; wrote {', '.join(map(str, written))}")
+    if why:
+        note(args, f"no --estimator: {why}")
+    return 0
+
+
+def cmd_table(args) -> int:
+    outs = [Path(o) for o in args.out]
+    if args.layout:
+        if args.model or args.axis or args.param or args.preset:
+            raise ParameterError("--layout names the model, parameters and axes itself: give no "
+                                 "MODEL, --param, --preset or --axis with it")
+        return _layout_table(args, outs)
+    if args.model is None:
+        raise ParameterError("MODEL is required (or --layout NAME)")
+    if not args.axis:
+        raise ParameterError("a table needs axes: --axis mu=START:STOP:COUNT (and more)")
+    spec = spec_of(args.model)
+    params = parse_params(spec, args.param)
+    for o in outs:
+        check_out(o)
+    axes = {}
+    for text in args.axis:
+        ax = parse_axis(text)
+        if ax["name"] in axes:
+            raise ParameterError(f"axis {ax['name']} is given twice")
+        axes[ax["name"]] = ax
+    fixed = {**params, **({"preset": args.preset} if args.preset else {})}
+    # every axis against the model, and the model on the device, before any work
+    table_axes(spec, axes, fixed, args.precision)
+    model_for(spec.name, args, params)
+    t0 = time.perf_counter()
+    why = choose_estimator(args)
+    cmd = no_resume(" ".join(["clbrdf"] + [quote(a) for a in args.argv]))
+    with _resumable(args, outs[0]):
+        table = albedo_table(spec.name, axes, samples=args.samples,
+                             estimator=args.estimator, seed=args.seed, qmc=args.qmc,
+                             precision=args.precision, device=args.device, width=args.width,
+                             progress=True, command=cmd, **quad_args(args),
+                             **target_args(args), **fixed)
+        seconds = time.perf_counter() - t0
+        written = save_tables(table, outs, prefix=c_name(spec.name))
+    print(_table_summary(table, seconds, written))
+    if why:
+        note(args, f"no --estimator: {why}")
+    return 0
+
+
+def _axis_text(name, values, spacing) -> str:
+    v = np.asarray(values, dtype=float)
+    sp = f", {spacing}" if spacing == "log" else ""
+    return f"{name} {len(v)} values in [{v.min():g}, {v.max():g}]{sp}"
+
+
+def _how(meta: dict) -> str:
+    if meta.get("estimator") == "quadrature":
+        return (f"quadrature to tol {meta.get('tol'):g}, up to {meta.get('samples')} "
+                f"evaluations per point")
+    est = meta.get("estimator", "?") + (" + QMC" if meta.get("qmc") else "")
+    return f"{meta.get('samples')} samples per point, estimator {est}, seed {meta.get('seed')}"
+
+
+def _table_summary(t, seconds: float, written) -> str:
+    """A few lines: grid, time, min/max E, E_avg range, files written."""
+    meta = t.computed
+    names = [n for n in meta["axes"] if n != "channel"] + \
+        (["channel"] if "channel" in meta["axes"] else [])
+    spacing = meta.get("spacing", {})
+    E = np.asarray(t["E"], dtype=float)
+    coords = {n: (t[n] if n != "channel" else np.arange(E.shape[-1])) for n in names}
+    grid = " x ".join(_axis_text(n, coords[n], spacing.get(n, "lin")) for n in names)
+
+    def at(idx, axes):
+        return ", ".join(f"{n}={float(coords[n][i]):.3g}" for n, i in zip(axes, idx))
+    imin = np.unravel_index(int(np.argmin(E)), E.shape)
+    imax = np.unravel_index(int(np.argmax(E)), E.shape)
+    err = "error" if meta.get("estimator") == "quadrature" else "stderr"
+    lines = [
+        f"{meta.get('model')} albedo table: {grid} = {E.size} points",
+        f"  {_how(meta)}, {meta.get('precision')} precision, {meta.get('device')}: {seconds:.1f} s",
+        f"  E      min {E.min():.5f} ({at(imin, names)}), max {E.max():.5f} ({at(imax, names)}), "
+        f"max {err} {np.max(t['E_stderr']):.1e}",
+    ]
+    if t.average is not None:
+        A = np.asarray(t["E_avg"], dtype=float)
+        others = [n for n in names if n not in ("mu", "theta", "phi")]
+        if others and A.ndim:
+            j0 = np.unravel_index(int(np.argmin(A)), A.shape)
+            j1 = np.unravel_index(int(np.argmax(A)), A.shape)
+            lines.append(f"  E_avg  min {A.min():.5f} ({at(j0, others)}), max {A.max():.5f} "
+                         f"({at(j1, others)}), max {err} {np.max(t['E_avg_stderr']):.1e}")
+        else:
+            lines.append(f"  E_avg  {float(A):.5f} +- {float(np.max(t['E_avg_stderr'])):.1e}")
+    lines.append("  wrote " + ", ".join(str(p) for p in written))
+    return "\n".join(lines)
+
+
+def add_parsers(sub) -> None:
+    dev = dev_parent()
+
+    p = sub.add_parser("table", parents=[dev], help="albedo table over a grid, or a renderer's "
+                       "tables (--layout), to .npz, .csv, .h or .exr",
+                       description="E over the grid of the axes and E_avg = 2 int E(mu) mu dmu over "
+                                   "the non-mu axes; writes FILE (.npz or .csv, plus FILE.avg.csv "
+                                   "for .csv, and a chart FILE with suffix .png; or .h, a C header "
+                                   "for C99, C++17, CUDA and OpenCL C; or .exr), atomically. "
+                                   "--layout NAME writes a renderer's tables exactly in its layout "
+                                   "(axes, mapping, quantity, placement, encoding) to .h, .npz or "
+                                   ".exr; 'clbrdf layouts' lists them.")
+    model_arg(p, "not with --layout: the layout names it")
+    p.add_argument("--layout", choices=sorted(_layouts()), default=None,
+                   help="a renderer's tables in its layout (default samples: the layout's "
+                        "published count)")
+    p.add_argument("--axis", action="append", default=[],
+                   metavar="NAME=START:STOP:COUNT[:SPACING][:PLACEMENT][:min=LO]",
+                   help="a grid axis: mu or theta (radians), phi, r (alpha = r^2) or a numeric "
+                        "parameter; SPACING lin (default), log or sqrt; PLACEMENT nodes (default) "
+                        "or centres (texel centres); min=LO evaluates at max(value, LO); or "
+                        "NAME=v1,v2,...; repeat for each axis")
+    sampling_args(p)
+    p.add_argument("--target-stderr", type=float, default=None, metavar="S",
+                   help="refine each cell (and average) whose standard error is above S: 4x "
+                        "its samples per look, independent numbers, up to --max-samples")
+    p.add_argument("--max-samples", type=int, default=None, metavar="N",
+                   help="the most samples a refined cell takes (default 64 x --samples)")
+    p.add_argument("--out", "-o", required=True, metavar="FILE", action="append",
+                   help="output .npz, .csv, .h or .exr; with --layout or .h/.exr it may be "
+                        "repeated (one computation, several files)")
+    p.add_argument("--resume", action="store_true",
+                   help="continue a killed run of the same command: its finished chunks are "
+                        "kept in .FILE.resume/ beside the first --out until the files are written")
+    p.set_defaults(func=cmd_table)
+
+    p = sub.add_parser("furnace", parents=[dev],
+                       help="white furnace of GGX energy compensation with a layout's tables",
+                       description="E_ss(mu, r) estimated directly, and the albedo after Turquin's "
+                                   "(f_ss / E) and Kulla-Conty's (f_ss + f_ms) compensation with "
+                                   "the tables of FILE (.npz or .exr from 'clbrdf table --layout'): "
+                                   "1 for a perfect table.")
+    p.add_argument("file", metavar="FILE")
+    p.add_argument("--samples", "-n", type=int, default=1 << 20, metavar="N",
+                   help="samples per direct estimate of E_ss (default 2^20)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=cmd_furnace)
+
+    p = sub.add_parser("layouts", help="the renderers' table layouts of 'clbrdf table --layout'")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=cmd_layouts)
