@@ -120,7 +120,7 @@ typedef struct { realN x, y, z; } vec3;
 
 /* Generated tables (kernels/data/NAME.npy, float32) in one buffer per program, passed to every model
  * kernel after the parameters; table NAME starts at offset TABLE_NAME (defined by
- * clbrdf/build.py for the tables a program's source names). */
+ * clbrdf/runtime/build.py for the tables a program's source names). */
 typedef const global float *Tables;
 
 /* T[i] per lane (OpenCL has no vector gather: one load per lane). */

@@ -1,5 +1,5 @@
 /* GTR, the generalised Trowbridge-Reitz distribution (Burley 2012; Holzschuch & Pacanowski 2015
- * Table 1), isotropic, for the microfacet model (MF_DIST gtr; MODELS.md section 1).
+ * Table 1), isotropic, for the microfacet model (MF_DIST gtr; docs/models/microfacet.md).
  *
  * | parameter | meaning                                        | range        |
  * |-----------|------------------------------------------------|--------------|

@@ -11,7 +11,7 @@
  *   sgd: max |G1 - G1_quad| = 5.5e-05, max |Lambda/Lambda_quad - 1| = 3.6e-04 (1620 points)
  * Over the whole served range (scripts/measure_lambda_tables.py): see docs/models/distributions.md.
  * Values (float32, row-major (shape, a, t)): kernels/data/gtr_lambda.npy and sgd_lambda.npy,
- * passed to the kernels in the tables buffer (clbrdf/build.py) at TABLE_gtr_lambda and
+ * passed to the kernels in the tables buffer (clbrdf/runtime/build.py) at TABLE_gtr_lambda and
  * TABLE_sgd_lambda.
  */
 #ifndef CLBRDF_DIST_LAMBDA_TABLES_H

@@ -5,7 +5,7 @@
  * Gamma(3/(2p)) / Gamma(1/p); rows and columns -1 and N are ghosts for Catmull-Rom.
  * Max error of log G1 (= relative error of G1) against direct quadrature at 8080 points: 5.4e-06 (at p = 2.84, nu~ = 0.66).
  * Values (float32, (NP + 2) x (NV + 2) row-major): kernels/data/exppow_g1.npy, passed to the
- * kernels in the tables buffer (clbrdf/build.py) at TABLE_exppow_g1.
+ * kernels in the tables buffer (clbrdf/runtime/build.py) at TABLE_exppow_g1.
  */
 #ifndef CLBRDF_EXPPOW_G1_TABLE_H
 #define CLBRDF_EXPPOW_G1_TABLE_H

@@ -1,4 +1,4 @@
-/* Fresnel reflectance as a function of c = cos(theta_d) = wi . h (MODELS.md section 1). */
+/* Fresnel reflectance as a function of c = cos(theta_d) = wi . h (docs/models/microfacet.md). */
 #ifndef CLBRDF_FRESNEL_H
 #define CLBRDF_FRESNEL_H
 

@@ -1,5 +1,5 @@
 /* Holzschuch & Pacanowski 2015: diffuse + reflection (exponential-power Cook-Torrance) +
- * diffraction lobes (papers/holzschuch_pacanowski2015_reflection_diffraction.txt, eq 24-27).
+ * diffraction lobes (Holzschuch & Pacanowski 2015, eq 24-27).
  *
  * | parameter       | meaning                                                 | range       |
  * |-----------------|---------------------------------------------------------|-------------|

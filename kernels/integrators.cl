@@ -12,11 +12,11 @@
  *   MODEL       the model's function prefix (lambert, microfacet, ...)
  *   ESTIMATOR   ESTIMATOR_UNIFORM | ESTIMATOR_COSINE | ESTIMATOR_BRDF | ESTIMATOR_MIS (albedo)
  *   RNG         rand_philox | rand_sobol (RNG_PHILOX 1 for the first; albedo and random)
- * and includes the model header after common.h, rng.h, warp.h (see clbrdf/build.py).
+ * and includes the model header after common.h, rng.h, warp.h (see clbrdf/runtime/build.py).
  * A program holds one part only, so it compiles no code its caller does not run.
  *
  * Every model kernel takes the parameters P and then TABLES, the program's generated tables
- * (clbrdf/build.py; one float when it has none).
+ * (clbrdf/runtime/build.py; one float when it has none).
  * Parameter arrays are structure-of-arrays: row j of query i at P[j * stride + i]; outputs with
  * channels likewise (channel c of query i at out[c * stride + i]).
  */
@@ -186,7 +186,7 @@ ALWAYS_INLINE spec albedo_estimate(const Params *p, vec3 wo, rand4 u)
 }
 
 /* ---- probes of the estimator's weight: the scale W of the unseen-event allowance ----
- * (clbrdf/core.py, weight_scale). PROBES deterministic numbers, the same for every point:
+ * (clbrdf/api/albedo.py, weight_scale). PROBES deterministic numbers, the same for every point:
  * u0, u1 on the grid 2^-20, 1/8, 3/8, 5/8, 7/8, 1 - 2^-20 (the sampler's edges: its lobe's peak
  * and far tail) and u2 in 0.1, 0.5, 0.9 (a mixture's lobes). At each the estimator's weight of
  * one sample: brdf, the sampler's weight; uniform 2 pi f cos and cosine pi f at the sampler's
@@ -274,7 +274,7 @@ FN int albedo_work(const global real_t *P, Tables TABLES, const global real_t *W
  * left out. Per channel the block writes its shift K (the block's first estimate, lane 0) and the
  * shifted sums D = sum (e - K) and Q = sum (e - K)^2 at out[3 (CHANNELS g + c) + 0, 1, 2] = K, D, Q:
  * shifted sums keep the variance exact in single precision where sum e^2 - (sum e)^2 / n cancels.
- * The host combines blocks in double, in a fixed order (clbrdf/runtime.py). */
+ * The host combines blocks in double, in a fixed order (clbrdf/runtime/albedo.py). */
 __kernel void albedo_blocks(const global real_t *P, Tables TABLES, const global real_t *WO, const ulong npoints,
                             const ulong point0, const uint block0, const uint launch_blocks,
                             const uint samples, const uint seed_lo, const uint seed_hi,
@@ -414,7 +414,7 @@ __kernel void albedo_qmc(const global real_t *P, Tables TABLES, const global rea
  * sum over its lobes: the interval's length times the integral over (u0, u1) with u2 at the
  * interval's midpoint. The sampler flattens its lobe, so the integrand over (u0, u1) is smooth
  * however sharp the lobe, but for kinks where wi crosses the horizon; the host refines the
- * panels where the error estimates are large (clbrdf/runtime.py, run_quadrature).
+ * panels where the error estimates are large (clbrdf/runtime/albedo.py, run_quadrature).
  *
  * Panels live in v in [0,1]^2, mapped to u per axis by the sigmoidal map of Sidi (1993),
  * u = v^4 / (v^4 + (1 - v)^4), whose Jacobian vanishes as v^3 at both ends: features attached to
@@ -423,7 +423,7 @@ __kernel void albedo_qmc(const global real_t *P, Tables TABLES, const global rea
  * Work-item g integrates panel g: v0 in [BOX[g], BOX[n + g]), v1 in [BOX[2n + g], BOX[3n + g])
  * (n = npanels) of point PT[g]. RULE holds `nodes` entries (a multiple of W) as five rows: x, y
  * on [0,1]^2 and the weights of three tensor rules (each entry belongs to one rule; its other
- * weights are 0): the fine rule, and two coarser ones (clbrdf/runtime.py, quad_rule). Per
+ * weights are 0): the fine rule, and two coarser ones (clbrdf/runtime/albedo.py, quad_rule). Per
  * channel the panel writes the fine rule's value at out[2 (CHANNELS g + c)] and the larger of
  * its differences from the coarse rules at + 1, its error estimate. */
 FN realN sidi4(realN v, realN *jac)

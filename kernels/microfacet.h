@@ -102,7 +102,7 @@ FN realN mf_G1c(Microfacet m, vec3 w, realN c)
 
 FN realN mf_G1(Microfacet m, vec3 w) { return mf_G1c(m, w, (realN)1); }
 
-/* Masking-shadowing G(wo, wi, h) (MODELS.md section 1). */
+/* Masking-shadowing G(wo, wi, h) (docs/models/microfacet.md). */
 FN realN mf_G(Microfacet m, vec3 wo, vec3 wi, vec3 h)
 {
     (void)h; (void)m;   /* the interface's; not every configuration reads it */

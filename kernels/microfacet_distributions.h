@@ -9,14 +9,14 @@
  *   LAMBDA_SCALE_FREE       1 where Lambda(k w) = Lambda(w) for k > 0 (a function of tan theta
  *                           written without |w| = 1), so that it takes an unnormalised direction
  *   Lambda_parts(w, &d)     optional (HAS_LAMBDA_PARTS 1): t with Lambda = t / d
- * Roughness: alpha_x, alpha_y scale the slopes along x and y (MODELS.md section 1).
+ * Roughness: alpha_x, alpha_y scale the slopes along x and y (docs/models/microfacet.md).
  */
 #ifndef CLBRDF_MICROFACET_DISTRIBUTIONS_H
 #define CLBRDF_MICROFACET_DISTRIBUTIONS_H
 
 /* ax, ay: roughness along x and y; shape: a second parameter of the NDFs that have one
  * (GTR gamma, SGD p, exponential-power p). */
-#if CLBRDF_TABLES      /* the program has generated tables (clbrdf/build.py) */
+#if CLBRDF_TABLES      /* the program has generated tables (clbrdf/runtime/build.py) */
 typedef struct { realN ax, ay, shape; Tables tables; } Microfacet;
 #define MICROFACET(ax, ay, shape, P) {ax, ay, shape, (P)->tables}
 #else

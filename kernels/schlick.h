@@ -1,5 +1,5 @@
 /* Schlick 1994, "An inexpensive BRDF model for physically-based rendering" (customizable
- * reflectance model); MODELS.md section 3.
+ * reflectance model); docs/models/schlick.md.
  *
  * | parameter         | meaning                                                  | range        |
  * |-------------------|----------------------------------------------------------|--------------|

@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
 """Record how the C API's results agree across builds and platforms (docs/kernels.md, the
-section between the markers): for every case of clbrdf.capi.CASES, the C99 build (gcc) against
+section between the markers): for every case of clbrdf.studies.capi.CASES, the C99 build (gcc) against
 the Python package (width 1), and the C API compiled as OpenCL C on every OpenCL device present
 against the C99 build; the largest difference over every output, in units of the precision's
-eps (clbrdf.capi.ulps says how it is counted).
+eps (clbrdf.studies.capi.ulps says how it is counted).
 
     python scripts/capi_platforms.py [--out docs/kernels.md] [--n 400]
 """
@@ -51,7 +51,7 @@ def main():
             f"{platform.machine()} with {gcc}; {a.n} inputs per case (uniform, grazing to "
             f"mu 1e-4 and mirror pairs; the model's own Philox numbers for sampling). Largest "
             f"difference over f, pdf, the sampled wi, its weight and pdf, in units of eps of the "
-            f"precision (`clbrdf.capi.ulps`). OpenCL devices:", ""]
+            f"precision (`clbrdf.studies.capi.ulps`). OpenCL devices:", ""]
     text += [f"- `{d}`: {names[d].name} [{names[d].platform}]" for d in devs]
     text += ["", *head, *rows, "", END]
     out = Path(a.out)

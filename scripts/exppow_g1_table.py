@@ -88,7 +88,7 @@ def write_header(T, path, seconds, err_text):
  * Gamma(3/(2p)) / Gamma(1/p); rows and columns -1 and N are ghosts for Catmull-Rom.
  * {err_text}
  * Values (float32, (NP + 2) x (NV + 2) row-major): kernels/data/exppow_g1.npy, passed to the
- * kernels in the tables buffer (clbrdf/build.py) at TABLE_exppow_g1.
+ * kernels in the tables buffer (clbrdf/runtime/build.py) at TABLE_exppow_g1.
  */
 #ifndef CLBRDF_EXPPOW_G1_TABLE_H
 #define CLBRDF_EXPPOW_G1_TABLE_H

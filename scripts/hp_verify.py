@@ -1,5 +1,5 @@
 """Numbers for docs/models/holzschuch_pacanowski.md: the diffraction lobe's energy normalisation
-(MODELS.md section 5 VERIFY) and the nickel example of Figure 12a, by deterministic quadrature
+(docs/models/holzschuch_pacanowski.md, the diffraction lobe's normalisation) and the nickel example of Figure 12a, by deterministic quadrature
 (clbrdf.ref.holzschuch_pacanowski) and, with --mc, by the kernels' Monte Carlo albedo.
 
     .venv/bin/python scripts/hp_verify.py [--mc]

@@ -260,7 +260,7 @@ def main():
         np.save(ROOT / "kernels" / "data" / f"{dist}_lambda.npy", T.astype(np.float32).reshape(-1))
     out += [" * Over the whole served range (scripts/measure_lambda_tables.py): see docs/models/distributions.md.",
             " * Values (float32, row-major (shape, a, t)): kernels/data/gtr_lambda.npy and sgd_lambda.npy,",
-            " * passed to the kernels in the tables buffer (clbrdf/build.py) at TABLE_gtr_lambda and",
+            " * passed to the kernels in the tables buffer (clbrdf/runtime/build.py) at TABLE_gtr_lambda and",
             " * TABLE_sgd_lambda."]
     out.append(" */\n#ifndef CLBRDF_DIST_LAMBDA_TABLES_H\n#define CLBRDF_DIST_LAMBDA_TABLES_H\n")
     text = "\n".join(out) + "\n" + "\n".join(body) + "\n#endif\n"

@@ -4,7 +4,7 @@ with pooling, Sidak correction, binomial acceptance intervals), and the chi-squa
 over half-vector-map bins.
 
 Apart from draw, nothing here calls the library's own sampling or quadrature code: the
-quadrature map below is written from the geometry of reflection (MODELS.md section 1), so a test
+quadrature map below is written from the geometry of reflection (docs/models/microfacet.md), so a test
 that integrates the kernel pdf with it checks the kernel against mathematics, not against itself.
 """
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The one axis parser of tables and sweeps (clbrdf/axes.py): forms, spacings, placements, min=,
+"""The one axis parser of tables and sweeps (clbrdf/tables/axes.py): forms, spacings, placements, min=,
 mapped axes, midpoints, and the errors that name what is wrong."""
 import numpy as np
 import pytest

@@ -202,7 +202,7 @@ def test_c_api_compiles_for_cuda(arch, precision, tmp_path):
 
 @pytest.mark.parametrize("std", ["CL1.2", "CL3.0"])
 def test_c_api_as_opencl_c(std):
-    """clbrdf.h in a user's own OpenCL kernel on the default device (clbrdf.capi.run_opencl):
+    """clbrdf.h in a user's own OpenCL kernel on the default device (clbrdf.studies.capi.run_opencl):
     GGX's value equals the Python package's at width 1 to 4 ulps."""
     wo, wi, u = capi.inputs(256, seed=1)
     out = capi.run_opencl("ggx", "single", wo, wi, u, std=std)[:, 0]

@@ -1,7 +1,7 @@
 """Holzschuch & Pacanowski 2015 (model ``holzschuch_pacanowski``) and the exponential-power
 microfacet distribution (model ``exppow``): kernels against the float64 reference
 (clbrdf/ref/holzschuch_pacanowski.py), the reference against the paper's integrals, the G1 table
-against direct quadrature, the sampler, the diffraction lobe's energy (MODELS.md VERIFY), and the
+against direct quadrature, the sampler, the diffraction lobe's energy (docs/models/holzschuch_pacanowski.md, the lobe's normalisation), and the
 nickel example of Figure 12a (a = 0.91, sigma = 0.027, p = 0.51).
 """
 from __future__ import annotations
@@ -454,7 +454,7 @@ def test_nickel_albedo_is_finite_and_below_one():
 
 
 def test_diffraction_energy_verify():
-    """MODELS.md VERIFY: the diffraction lobe S(f_s) / E with G = 1, at normal incidence,
+    """docs/models/holzschuch_pacanowski.md, the lobe's normalisation: the diffraction lobe S(f_s) / E with G = 1, at normal incidence,
     integrated (cos-weighted) over the hemisphere by 1-D quadrature over the projected disk,
     and off normal incidence by the 2-D reference quadrature. E = pi c/(1+c) (c = a^2 lambda^2)
     gives albedo exactly 1 at normal incidence and less elsewhere (S is radially decreasing

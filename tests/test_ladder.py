@@ -1,4 +1,4 @@
-"""The ladder of cheaper variants and ``clbrdf simplest`` (clbrdf/ladder.py): the variants a
+"""The ladder of cheaper variants and ``clbrdf simplest`` (clbrdf/studies/ladder.py): the variants a
 configuration offers, their errors against independent float64 references, the choice, the CLI."""
 import json
 

@@ -638,7 +638,7 @@ def test_example_program_returns_the_lost_energy(tmp_path):
 
 def test_target_stderr_refines_only_the_cells_that_need_it():
     """Every cell ends with its reported error (the standard error with what N samples cannot
-    see, clbrdf.core.unseen) within the target, or at the cap; cells already within it keep the
+    see, clbrdf.api.albedo.unseen) within the target, or at the cap; cells already within it keep the
     base count; the refined estimates agree with direct estimates at 2^20 samples (5 combined
     reported errors); E_avg is refined the same way."""
     axes = {"mu": [0.02, 0.3, 1.0], "r": [0.1, 0.6, 1.0]}

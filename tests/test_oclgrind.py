@@ -46,7 +46,7 @@ SCRIPT = textwrap.dedent("""
     for est in ('uniform', 'brdf', 'mis'):
         clbrdf.albedo(m, [0.3, 0.9], samples=1500, estimator=est)
     clbrdf.albedo(m, [0.3], samples=1500, qmc=True)
-    clbrdf.runtime.QUAD_FIRST_PANELS = 1       # one panel, then one refinement: a small job
+    clbrdf.runtime.quadrature.QUAD_FIRST_PANELS = 1       # one panel, then one refinement: a small job
     import warnings
     with warnings.catch_warnings():
         warnings.simplefilter('ignore', RuntimeWarning)

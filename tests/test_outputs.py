@@ -74,7 +74,7 @@ def test_commit_restores_old_files_when_a_replace_fails(tmp_path, monkeypatch):
 
 def test_sigterm_leaves_no_temporary_file(tmp_path):
     """SIGTERM during the work: exit 143, the old files unchanged, nothing else in the directory
-    but the checkpoint that --resume continues from (clbrdf.checkpoint), which stderr names."""
+    but the checkpoint that --resume continues from (clbrdf.tables.checkpoint), which stderr names."""
     out = tmp_path / "t.npz"
     out.write_text("old")
     p = subprocess.Popen([sys.executable, "-m", "clbrdf.cli", *TABLE, "--samples", str(1 << 30),

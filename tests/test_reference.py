@@ -1,5 +1,5 @@
 """Tests of clbrdf.ref.microfacet against independent results: closed forms, the integral
-definitions of MODELS.md section 1 evaluated with scipy.integrate, and brute-force quadrature
+definitions of docs/models/microfacet.md evaluated with scipy.integrate, and brute-force quadrature
 over the hemisphere in other coordinates than the integrator's maps."""
 import functools
 import warnings
@@ -25,7 +25,7 @@ def quad(f, a, b, **kw):
 
 
 def P22(dist, x, a):
-    """Slope function of MODELS.md section 1, x = tan^2 theta_h; integral_0^inf P22 = 1/pi."""
+    """Slope function of docs/models/microfacet.md, x = tan^2 theta_h; integral_0^inf P22 = 1/pi."""
     if dist == "beckmann":
         return np.exp(-x / a ** 2) / (np.pi * a ** 2)
     return a ** 2 / (np.pi * (a ** 2 + x) ** 2)
@@ -383,7 +383,7 @@ def test_albedo_near_mirror_normal_incidence():
     assert abs(E - 1) < 1e-12
     # GGX: the heavy tail puts 1 - 1/(1 + a^2) = a^2/(1 + a^2) beyond the horizon, so 1 - E is
     # about 1.0e-6 and E is NOT 1 within 1e-6. Independent 1-D quadrature over theta_h (wo = n,
-    # wi at 2 theta_h, G = 1/(1 + Lambda(wi)) with the closed-form Lambda of MODELS.md):
+    # wi at 2 theta_h, G = 1/(1 + Lambda(wi)) with the closed-form Lambda of docs/models/microfacet.md):
     def g(th):
         t2 = np.tan(2 * th) ** 2
         lam = (-1 + np.sqrt(1 + a * a * t2)) / 2

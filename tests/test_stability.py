@@ -1,4 +1,4 @@
-"""The stability map (clbrdf/stability.py): its flags against an independent recomputation,
+"""The stability map (clbrdf/studies/stability.py): its flags against an independent recomputation,
 the shipped map's coverage, the warnings it drives, and ``clbrdf stability``."""
 import csv
 import math

@@ -41,7 +41,7 @@ SPLIT_AS = {"A": {"f0": 1.0, "f90": 0.0}, "B": {"f0": 0.0, "f90": 1.0}, "E": {"f
 
 def axis_values(spec):
     """(axis values, model values) of an axis as the README states them, written out here
-    independently of clbrdf.axes: t = i / (N - 1) at nodes, (i + 0.5) / N at texel centres;
+    independently of clbrdf.tables.axes: t = i / (N - 1) at nodes, (i + 0.5) / N at texel centres;
     lin: START + t (STOP - START); sqrt: (sqrt START + t (sqrt STOP - sqrt START))^2; min=LO
     evaluates at max(value, LO); r and theta map to alpha = r^2 and mu = cos theta."""
     if not isinstance(spec, str):

@@ -31,7 +31,7 @@ class Model(Bound):
 
     Parameters may be arrays; they broadcast with the directions. ``precision`` is ``single`` or
     ``double``; ``width`` the lanes per work-item (default: 16 single / 8 double on a CPU, 1 on
-    a GPU); ``device`` a selector (see ``clbrdf.device``). ``channels=3`` makes the model RGB:
+    a GPU); ``device`` a selector (see ``clbrdf.runtime.device``). ``channels=3`` makes the model RGB:
     parameters marked per channel take a trailing axis of 3 (``kd=[0.2, 0.3, 0.4]``), and values,
     sample weights and albedos get a trailing axis of 3.
     """

@@ -45,7 +45,7 @@ from .common import (
 
 def _kernel_state(info, run: bool):
     """(column text, note) of whether the device runs the kernels at its default width in single
-    precision: ok W<width>, "width 1 only", FAILS, or untested (clbrdf.probe's cache; ``run``
+    precision: ok W<width>, "width 1 only", FAILS, or untested (clbrdf.runtime.probe's cache; ``run``
     checks the untested)."""
     w = natural_width(info, "single")
     look = probe.kernel_error if run else probe.cached

@@ -135,7 +135,7 @@ def add_parsers(sub) -> None:
                        "configuration within a tolerance",
                        description="Measure every cheaper variant of the configuration "
                                    "(masking, Fresnel, lobes, Schlick's formulations, diffraction, "
-                                   "analytic Lambda, single precision; clbrdf/ladder.py) against "
+                                   "analytic Lambda, single precision; clbrdf/studies/ladder.py) against "
                                    "the full configuration in double precision and print the "
                                    "fastest whose max relative error is within the tolerance, with "
                                    "its error and measured speed-up.")
@@ -153,7 +153,7 @@ def add_parsers(sub) -> None:
     p = sub.add_parser("ladder", parents=[dev], help="chart every cheaper variant's cost "
                        "against its error",
                        description="For each model's ladder configuration "
-                                   "(clbrdf.ladder.LADDER_CONFIGS): every cheaper variant's max "
+                                   "(clbrdf.studies.ladder.LADDER_CONFIGS): every cheaper variant's max "
                                    "relative error of f and of E against the full model in double, "
                                    "and its measured evaluations and albedo samples per second. "
                                    "Writes DIR/ladder.csv, DIR/MODEL.png and DIR/README.md.")

@@ -82,7 +82,7 @@ def cmd_layouts(args) -> int:
 
 @contextlib.contextmanager
 def _resumable(args, out: Path):
-    """The table's computations checkpointed beside its first output (clbrdf.checkpoint), so
+    """The table's computations checkpointed beside its first output (clbrdf.tables.checkpoint), so
     that a killed run continues with --resume; the checkpoint goes once the files are written."""
     where = out.with_name(f".{out.name}.resume")
     job = {k: v for k, v in sorted(vars(args).items())

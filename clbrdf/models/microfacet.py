@@ -1,7 +1,7 @@
 """Microfacet reflection with a Beckmann or GGX distribution. Kernel: kernels/microfacet.h.
 
 f = ks F(wi.h) D(h) G(wi, wo, h) / (4 cos_i cos_o) + kd / pi  (Walter et al. 2007 eq 20;
-MODELS.md section 1). Only the terms a configuration uses are compiled: the Fresnel term follows
+docs/models/microfacet.md). Only the terms a configuration uses are compiled: the Fresnel term follows
 the ``fresnel`` option (or, when it is not given, the Fresnel parameters given: f0 or f90 ->
 schlick, eta -> dielectric, eta and k -> conductor; f90 gives Schlick's F a grazing value other
 than 1, as Filament, UE and three.js do to split E into the scale and bias of F0), the Lambertian term is compiled when kd is given, the

@@ -7,7 +7,7 @@ kernels, one module per model family, all behind one interface.
     eval(wo, wi)                    f in 1/sr, shape (...) or (..., 3) for an RGB model
     pdf(wo, wi)                     density (1/sr) of wi under the model's sampler, given wo
     albedo(mu, phi=0.0, tol=1e-8)   (E, err) for wo = direction(mu, phi) by the deterministic
-                                    quadrature of ``clbrdf.quadrature``; E per channel
+                                    quadrature of ``clbrdf.ref.quadrature``; E per channel
     reciprocal                      whether the paper claims f(wo, wi) = f(wi, wo)
 
 A model's description names its reference module (``ModelSpec.ref``: ``"microfacet"`` is

@@ -1,6 +1,5 @@
 """Double-precision NumPy reference for the Ashikhmin & Shirley 2000 anisotropic Phong BRDF
-(``ashikhmin_shirley``), written from the paper (eq 5, 10-11, 14, 16, 18-20) and MODELS.md
-section 2, independently of the kernel: eq 16 evaluated as printed on the unit half vector
+(``ashikhmin_shirley``), written from the paper (eq 5, 10-11, 14, 16, 18-20) and docs/models/ashikhmin_shirley.md, independently of the kernel: eq 16 evaluated as printed on the unit half vector
 (exponent (nu h_u^2 + nv h_v^2) / (1 - (n.h)^2), its 0/0 at h = n taken as its limit), the
 sampler in the paper's four-branch quadrant form, and a quadrature map that follows the lobe.
 

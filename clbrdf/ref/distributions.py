@@ -1,6 +1,6 @@
 """Double-precision reference for the GTR and SGD microfacet distributions and Bagher's SGD BRDF.
 
-Written from Holzschuch & Pacanowski 2015 Table 1 (MODELS.md section 1), Bagher, Soler &
+Written from Holzschuch & Pacanowski 2015 Table 1 (docs/models/microfacet.md), Bagher, Soler &
 Holzschuch 2012, and, for the full SGD BRDF of the published fits, jdupuy/dj_brdf ``djb::sgd``;
 independently of the OpenCL kernels (no tables, no series: SciPy quadrature and root finding).
 
@@ -362,7 +362,7 @@ def pdf(model, wo, wi, *, alpha, **params):
 
 
 def albedo(model, mu, phi=0.0, tol=1e-8, **params):
-    """E(wo) = integral f cos_i dw_i by clbrdf.quadrature.hemisphere_integral, (value, err).
+    """E(wo) = integral f cos_i dw_i by clbrdf.ref.quadrature.hemisphere_integral, (value, err).
     gtr/sgd with masking="none" (the default here: Lambda by quadrature at every node would be
     slow) or a Smith masking; the half-vector map of GGX (GTR: same tails x^-2) or of Beckmann with
     a^2 = alpha (SGD: same tail e^-x/alpha). sgd_bagher (scalar parameters): specular term over

@@ -1,6 +1,5 @@
 """Double-precision reference for the exponential-power distribution and the Holzschuch &
-Pacanowski 2015 BRDF (papers/holzschuch_pacanowski2015_reflection_diffraction.txt; MODELS.md
-sections 1 and 5). Written from the paper, independently of the kernels (no G1 table: Lambda by
+Pacanowski 2015 BRDF (docs/models/holzschuch_pacanowski.md, docs/models/microfacet.md). Written from the paper, independently of the kernels (no G1 table: Lambda by
 adaptive quadrature, SciPy's incomplete gamma functions).
 
 Exponential power (eq 18-19): ``P22(x) = beta exp(-(x/sigma^2)^p)``,

@@ -1,5 +1,5 @@
 """Double-precision NumPy reference for the Löw et al. 2012 models (``low_smooth``,
-``low_microfacet``), written from the paper (eq 11-28, 34) and MODELS.md section 4, independently
+``low_microfacet``), written from the paper (eq 11-28, 34) and docs/models/low.md, independently
 of the kernels: the Fresnel factor from Snell's law and the s/p amplitudes (not the Cook-Torrance
 g form), the samplers in the paper's printed forms (pow/exp/log, with the C = 1 case of eq 24-25
 taken exactly where C == 1), and quadrature maps that follow each lobe.

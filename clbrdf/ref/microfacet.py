@@ -1,6 +1,6 @@
 """Double-precision NumPy reference of the Lambertian and microfacet (Beckmann, GGX) models.
 
-Written from the equations in ``shared/MODELS.md`` ("Conventions", "1. Building blocks"),
+Written from the equations in docs/models/microfacet.md,
 independently of the OpenCL kernels, so that the kernels can be tested against it. Everything is
 float64 and broadcasts: directions are arrays of shape (..., 3) in the local frame (normal z,
 tangent x); ``wi`` points towards the light, ``wo`` towards the viewer, both away from the
@@ -16,7 +16,7 @@ conductor), ``lobe_sampler`` (ndf, vndf). When ``fresnel`` is not given it follo
 parameters given, as the model specs do: eta and k -> conductor, eta -> dielectric,
 f0 -> schlick, none -> one. A parameter that the configuration does not use is an error.
 
-``albedo`` and ``albedo_avg`` are deterministic: ``clbrdf.quadrature`` over the half-vector map
+``albedo`` and ``albedo_avg`` are deterministic: ``clbrdf.ref.quadrature`` over the half-vector map
 of the lobe (``halfvector_map``) and the cosine map.
 """
 import numpy as np
@@ -48,7 +48,7 @@ FRESNEL_PARAMS = {"one": (), "schlick": ("f0",), "dielectric": ("eta",), "conduc
 
 
 # ---------------------------------------------------------------------------------------------
-# Building blocks (MODELS.md section 1)
+# Building blocks (docs/models/microfacet.md)
 
 def D(dist, h, alpha_x, alpha_y):
     """Distribution of normals, integral D(h) (h.n) dw_h = 1; 0 for h.z <= 0.
@@ -418,7 +418,7 @@ class LambertReference(Reference):
 
 
 class MicrofacetReference(Reference):
-    """f = ks F(wi.h) D(h) G(wo, wi, h) / (4 cos_i cos_o) + kd / pi (MODELS.md section 1). A
+    """f = ks F(wi.h) D(h) G(wo, wi, h) / (4 cos_i cos_o) + kd / pi (docs/models/microfacet.md). A
     subclass for another distribution overrides ``D``, ``Lambda`` and ``hv_map``."""
 
     def rough(self):

@@ -1,4 +1,4 @@
-"""Double-precision NumPy reference of Schlick 1994 (MODELS.md section 3), its sampling density,
+"""Double-precision NumPy reference of Schlick 1994 (docs/models/schlick.md), its sampling density,
 and a deterministic albedo integrator. Written from the paper, independently of kernels/schlick.h.
 
 Notation (paper section 2): h = normalize(wi + wo), t = n.h, u = wo.h, v = n.wo, v' = n.wi,

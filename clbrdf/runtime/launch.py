@@ -28,7 +28,7 @@ _WARNED: set = set()
 
 def working_width(device: Device, precision: str) -> int:
     """The default width of ``device`` (Device.default_width) if the kernels build and compute
-    right there (clbrdf.probe, in a child process, cached), else 1 with a warning that says how
+    right there (clbrdf.runtime.probe, in a child process, cached), else 1 with a warning that says how
     to get the fast path; a DeviceError if width 1 fails too. CLBRDF_WIDTH and GPUs (width 1)
     are taken as they are."""
     w = device.default_width(precision)

@@ -104,7 +104,7 @@ def run_quadrature(m, shape, wo_rows, *, tol: float, max_evals: int = QUAD_MAX_E
     """E at every point of ``shape`` by quadrature_panels: QUAD_FIRST_PANELS^2 panels per point,
     then, while a point's error estimate (the sum of its panels' |higher - lower order|, largest
     over channels) exceeds ``tol``, its panels with the largest errors (enough that the others
-    sum to at most tol / 2) are cut in four, as in clbrdf.quadrature.adaptive_gl2. Panels are not
+    sum to at most tol / 2) are cut in four, as in clbrdf.ref.quadrature.adaptive_gl2. Panels are not
     cut below 2^-20 (single) or 2^-40 (double) of the square's side, nor past ``max_evals``
     evaluations per point. Returns (E, err, evaluations per point, seconds); err > tol where the
     refinement stopped first."""

@@ -1,6 +1,6 @@
 """Sweeps on a dask.distributed cluster: ``pip install 'clbrdf[cluster]'``.
 
-    from clbrdf.cluster import local_cluster, connect
+    from clbrdf.studies.cluster import local_cluster, connect
     client = connect("local:2")                 # or connect("tcp://scheduler:8786")
     clbrdf.sweep("ggx", "ggx.zarr", axes=..., client=client)
 

@@ -395,7 +395,7 @@ def summary(rows, checks, command, seconds, before=None, samples=SAMPLES,
              f"seed {SEED}). Each model's lobe parameters are swept "
              "(others at their defaults) against mu; every Monte Carlo estimator runs with "
              "Philox points in single and double precision against the float64 reference "
-             "(`clbrdf/stability.py` says how each flag is decided). `stability.csv`: one row "
+             "(`clbrdf/studies/stability.py` says how each flag is decided). `stability.csv`: one row "
              "per cell; `checks.csv`: `clbrdf check`'s finite, non-negative and weight checks "
              "at each swept value; `MODEL.png`: heat maps (colour: log10 efficiency against the "
              "best estimator at the cell; N non-finite, B biased, P precision lost in single).",
@@ -471,14 +471,14 @@ def summary(rows, checks, command, seconds, before=None, samples=SAMPLES,
 
 def stability_map(models=None, out="stability", *, samples: int = SAMPLES,
                   precisions=("single", "double"), before=None,
-                  command: str = "clbrdf.stability.stability_map()", progress=None) -> Path:
+                  command: str = "clbrdf.studies.stability.stability_map()", progress=None) -> Path:
     """Measure and write stability.csv, checks.csv, MODEL.png and README.md to ``out`` (staged:
     a kill leaves the old files or the new ones). References are taken from ``out``'s earlier
     stability.csv where it has the cell. ``before``: an earlier stability.csv to compare with."""
     names = [get_spec(n).name for n in (models or list(SWEEPS))]
     for n in names:
         if n not in SWEEPS:
-            raise ParameterError(f"model={n!r} has no sweep in clbrdf.stability.SWEEPS")
+            raise ParameterError(f"model={n!r} has no sweep in clbrdf.studies.stability.SWEEPS")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     cache = ref_cache(out / "stability.csv")

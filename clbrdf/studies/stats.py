@@ -3,7 +3,7 @@ map of the hemisphere in stretched half-vector slopes, panel integrals of a dens
 orders, equal-mass bins, and Pearson's chi-square with pooling and a Sidak correction.
 
 Nothing here calls the library's sampling code: the map is written from the geometry of
-reflection (MODELS.md section 1), so a check that integrates a kernel pdf with it compares the
+reflection (docs/models/microfacet.md), so a check that integrates a kernel pdf with it compares the
 kernel against mathematics, not against itself.
 """
 from __future__ import annotations

@@ -185,7 +185,7 @@ def sweep(model: str | None = None, out=None, *, resume: bool = False, device=No
     ``precision``, ``width``, ``chunk``, ``preset`` and fixed parameters and options.
     ``device``: a selector, a Device, or a list of them (chunks are dealt out as devices
     finish); ``client``: a dask.distributed Client whose workers compute the chunks (see
-    clbrdf.cluster). With ``resume=True`` and no model, the store's own job continues.
+    clbrdf.studies.cluster). With ``resume=True`` and no model, the store's own job continues.
     ``stop``: a threading.Event; once it is set the run ends after the chunks in progress, all
     of them written, and returns the store as far as it got (``Sweep.done()``). A
     KeyboardInterrupt (or any exception) in the calling thread does the same and is re-raised.

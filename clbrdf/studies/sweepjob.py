@@ -61,7 +61,7 @@ def _check_axis(ax: dict, spec, random: bool) -> dict:
 
 def gauss_directions(n_mu: int, n_phi: int = 1) -> dict:
     """Gauss-Legendre nodes in mu times n_phi equally spaced azimuths, with the weights of
-    E_avg = (1/pi) int E mu dwo (clbrdf.core._avg_rule): mu-major order."""
+    E_avg = (1/pi) int E mu dwo (clbrdf.api.albedo._avg_rule): mu-major order."""
     mu, phi, c = _avg_rule(n_mu, n_phi)
     M, P = np.meshgrid(mu, phi, indexing="ij")
     return {"spec": f"gauss:{n_mu}" + (f"x{n_phi}" if n_phi > 1 else ""),

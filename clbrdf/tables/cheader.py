@@ -6,7 +6,7 @@ axis, ``P_NAME_stderr[]`` when CLBRDF_LUT_WITH_STDERR is defined, and
 
     float P_NAME_lookup(float x0, float x1, ...[, int channel])
 
-with the interpolation of ``clbrdf.table.Table.lookup`` (multilinear in the clamped continuous
+with the interpolation of ``clbrdf.Table.lookup`` (multilinear in the clamped continuous
 index: nodes u (N - 1), texel centres u N - 1/2). Axes, mapping, quantity, encoding and how the
 values were computed are in the comment above each table.
 """

@@ -2,10 +2,10 @@
 
 A layout (clbrdf/data/layouts.json) names the consumer's tables: each table's quantity (E, 1-E,
 E_avg, 1-E_avg, the Fresnel scale A and bias B, or a list of them as interleaved channels), its
-axes in the consumer's memory order (slowest first, ``clbrdf.axes`` text: spacing, nodes or
+axes in the consumer's memory order (slowest first, ``clbrdf.tables.axes`` text: spacing, nodes or
 texel centres, r for alpha = r^2, min= for the values the consumer evaluates at a clamped
 argument), the range it clamps to and its encoding (float32, float16, unorm16). ``make_layout``
-computes every table with ``albedo_table`` and returns ``clbrdf.table.Table`` objects.
+computes every table with ``albedo_table`` and returns ``clbrdf.Table`` objects.
 """
 from __future__ import annotations
 
@@ -93,7 +93,7 @@ def _run_kc(model, axl, q, fixed, **kw):
     PBR's Base_E). The MS lobe's albedo at mu is 1 - E(mu) exactly (its cosine-weighted integral
     over wi is (1 - E(mu)) (1 - E_avg) / (1 - E_avg)). E and E_avg are the lobe's with F = 1 over
     the axes other than the Fresnel ones (f0, f90, eta, k); F_avg is the kernel's own
-    (``clbrdf.core.fresnel_avg``). E_kc_avg is the same with E_F_avg and E_avg for E_F and E.
+    (``clbrdf.api.albedo.fresnel_avg``). E_kc_avg is the same with E_F_avg and E_avg for E_F and E.
     The stderr adds the three estimates' in quadrature (first order; E_F and E share seeds and
     correlate positively, so it is an upper bound)."""
     avg = q.endswith("_avg")
@@ -141,8 +141,8 @@ def compute_table(model: str, name: str, quantity, axes: list, *, fixed=None, va
                   encoding: str = "float32", layout: str | None = None,
                   check_interpolation: bool = True, **kw):
     """One table: ``quantity`` over ``axes`` (axis text or dicts, memory order) from
-    ``albedo_table``; returns a ``clbrdf.table.Table``. ``check_interpolation`` also estimates
-    E halfway between neighbouring samples on every axis (``clbrdf.axes.midpoints``) and records
+    ``albedo_table``; returns a ``clbrdf.Table``. ``check_interpolation`` also estimates
+    E halfway between neighbouring samples on every axis (``clbrdf.tables.axes.midpoints``) and records
     the largest difference from the table's own lookup there (interpolation and encoding error,
     plus both estimates' noise; at most CHECK_SAMPLES samples per midpoint) in
     ``meta["interpolation"]``."""
@@ -214,7 +214,7 @@ def table_config(lay: dict, tab: dict) -> tuple:
 
 
 def _fresnel_table(model, name, qs, axl, fixed, value_range, encoding, layout, kw):
-    """F_avg over axes of Fresnel parameters (``clbrdf.core.fresnel_avg``: deterministic, the
+    """F_avg over axes of Fresnel parameters (``clbrdf.api.albedo.fresnel_avg``: deterministic, the
     kernel's own F; stderr 0)."""
     axl = [check_form(a) for a in axl]
     bad = [a["name"] for a in axl if a["name"] not in ("f0", "f90", "eta", "k")]
