@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Record how the C API's results agree across builds and platforms (docs/kernels.md, the
-section between the markers): for every case of clbrdf.studies.capi.CASES, the C99 build (gcc) against
+section between the markers): for every case of clbrdf.studies.capi.cases(), the C99 build (gcc) against
 the Python package (width 1), and the C API compiled as OpenCL C on every OpenCL device present
 against the C99 build; the largest difference over every output, in units of the precision's
 eps (clbrdf.studies.capi.ulps says how it is counted).
@@ -31,7 +31,7 @@ def main():
         f"OpenCL {d} vs C99" for d in devs) + " |",
             "|---|---|---:|" + "---:|" * len(devs)]
     rows = []
-    for name, _, _ in capi.CASES:
+    for name, _, _ in capi.cases():
         for precision in ("single", "double"):
             m = capi.model(name, precision)
             wo, wi, u = capi.inputs(a.n, m=m)

@@ -19,9 +19,7 @@ from clbrdf.models import MODELS
 from clbrdf.ref import reference
 
 MUS = (1e-3, 0.02, 0.05, 0.2, 0.5, 0.8, 1.0)
-ROUGH = {"ggx": {"alpha": 1e-3}, "beckmann": {"alpha": 1e-3}, "exppow": {"alpha": 1e-3},
-         "gtr": {"alpha": 1e-3}, "sgd": {"alpha": 1e-3},
-         "ward": {"alpha_x": 1e-3, "alpha_y": 1e-3}, "holzschuch_pacanowski": {"sigma": 1e-3}}
+ROUGH = {n: s.facts.roughest for n, s in MODELS.items() if s.facts.roughest}
 
 
 def cases(models):

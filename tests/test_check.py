@@ -11,17 +11,8 @@ import pytest
 import clbrdf
 from clbrdf.studies.check import check, configurations
 from clbrdf.models import MODELS
+from known import CHECK_XFAIL, check_failures
 
-# Checks that fail at a model's defaults because the model truly breaks the property (evidence in
-# docs/models.md, "What clbrdf check finds"): model -> names of the failing checks.
-KNOWN_FAILURES = {
-    "schlick": {"energy"},         # E = 1.47 at mu = 1e-6 (eq 18): per direction not conserving
-    "ward": {"energy"},            # E = 27.6 at mu = 1e-6: f ~ 1 / sqrt(cos_o) at grazing
-    # E = 12.89 at mu = 1e-3 by the float64 reference's quadrature (kernel 12.87 +- 0.03): with
-    # the default c = 1e-7, k = 30 Bagher's G1 is 0.999999 at grazing, so f ~ 1 / cos_o
-    "sgd_bagher": {"energy"},
-    "charlie": {"energy"},         # E = 1.063 at mu = 1e-6: the sheen lobe gains at grazing
-}
 
 
 # Found by clbrdf check and not yet settled; this test fails when it changes, so that the entry
@@ -33,7 +24,7 @@ KNOWN_DEFECTS: dict = {}
 def test_every_model_passes_at_defaults(name):
     r = check(name)          # the defaults of clbrdf check (2^16 samples per direction, seed 0)
     failed = {c.name for c in r.checks if not c.passed}
-    want = KNOWN_FAILURES.get(name, set()) | KNOWN_DEFECTS.get(name, set())
+    want = check_failures(name) | KNOWN_DEFECTS.get(name, set())
     assert failed == want, r.table()
 
 
@@ -148,36 +139,17 @@ BATTERY = [(n, cid, kw) for n in MODELS for cid, kw in configurations(n)]
 BATTERY += [(n, f"{cid}-double" if cid != "defaults" else "double", {**kw, "precision": "double"})
             for n in MODELS for cid, kw in configurations(n) if cid == "defaults" or _edge(cid)]
 
-# What fails at a range edge besides energy, and why (evidence in docs/models.md, "At the edges
-# of the ranges"): (model, id) -> the failing checks.
-EDGE_FAILURES = {
-    # E = 1.8e-11 (mu = 0.5) and 7e-10 (mu = 1) by quadrature, carried by about one sample in 1e6
-    # (y ~ Gamma(10, 1), tan theta_h = sigma y^5: nearly every normal is grazing): runs of 2^16
-    # samples report 0 +- 0. In single precision the 8-ulp floor (5e-7) covers it.
-    ("exppow", "p=lo-double"): {"albedo vs quadrature", "stderr honest"},
-    ("holzschuch_pacanowski", "p=lo-double"): {"albedo vs quadrature", "stderr honest"},
-    # A(phi) ~ sqrt(p) / sqrt(e^2 + p^2) near its peak (e: azimuth from it) spreads the mass
-    # log-uniformly over e in [1e-6, 1]: the check's panel quadrature of the pdf does not
-    # converge (it says so), so its expected counts are off;
-    # the sampler is right: brdf albedo 0.0018440 +- 9e-7 and 0.0041824 +- 4e-6 against the
-    # reference's quadrature 0.0018439 and 0.0041842 (mu = 0.05, 0.5; 2^20 samples)
-    ("schlick", "p=lo"): {"chi-square", "pdf integral"},
-    ("schlick", "p=lo-double"): {"chi-square", "pdf integral"},
-}
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("name, cid, kw", BATTERY, ids=[f"{n}-{c}" for n, c, _ in BATTERY])
 def test_battery_over_configurations(name, cid, kw):
     """Every check passes except energy (a configuration may gain energy: F = 1 with a Lambertian
     term, a fit with ks > 1, ks = 1e6 at an edge, ...), the model's known failures and, at the
-    edges, EDGE_FAILURES (which must then fail: the entry goes with the fix)."""
-    if name == "sgd_bagher" and cid.startswith("preset="):
-        pytest.xfail("open defect: in single precision the fits' shadowing G1 = 1 - lam "
-                     "expm1(c (theta - theta0)^k), k up to 48, is near its zero at grazing and "
-                     "float32 cannot resolve it (alum-bronze G1(mu = 1e-6) 4.92e-5 against "
-                     "5.44e-5 in float64): weights off f cos / pdf at mu <= 1e-4; double passes")
+    edges, the failures its description states (which must then fail: the entry goes with the
+    fix)."""
+    for (n, prefix), why in CHECK_XFAIL.items():
+        if name == n and cid.startswith(prefix):
+            pytest.xfail(why)
     r = check(name, **kw)            # the defaults of clbrdf check, as in the test above
-    want = EDGE_FAILURES.get((name, cid), set())
-    allowed = {"energy"} | KNOWN_FAILURES.get(name, set()) | KNOWN_DEFECTS.get(name, set()) | want
+    want = check_failures(name, cid) if cid != "defaults" else set()
+    allowed = {"energy"} | check_failures(name) | KNOWN_DEFECTS.get(name, set()) | want
     assert want <= failing(r) <= allowed, r.table()

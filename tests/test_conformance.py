@@ -27,6 +27,7 @@ import clbrdf
 from clbrdf.studies.check import configurations
 from clbrdf.studies.stats import sidak
 from clbrdf.ref import reference
+from known import known
 
 # models whose kernels tabulate the Smith Lambda (relative tolerance of eval and pdf)
 TABULATED = {"gtr": 1e-3, "sgd": 1e-3, "exppow": 1e-3, "holzschuch_pacanowski": 1e-3}
@@ -137,17 +138,9 @@ def _perturbed_spread(fn, wo, wi, k=6, seed=3):
     return out
 
 
-# Single-precision limits at range edges, each an open item with its cause (strict xfail: the
-# entry goes when the case passes). Schlick's F = f0 + (1 - f0)(1 - c)^5 at f0 = 0: c = wi.h
-# carries the float32 rounding of h, so (1 - c)^5 is off by 5 eps / (1 - c) relative (6.5e-5 at
-# 1 - c = 2.4e-3, F = 8e-14); absolute error below 5 eps (1 - c)^4 of F's range [0, 1]. The
-# stable form, 1 - c = |wo - wi|^2 / (4 (1 + c)), needs wo and wi at each Fresnel call.
-SINGLE_LIMITS = {(n, "f0=lo"): "Schlick (1 - c)^5 from a rounded c at f0 = 0"
-                 for n in ("ggx", "beckmann", "exppow", "gtr")}
-# The open sgd_bagher defect (docs/models.md): the fits' G1 = 1 - lam expm1(c (theta - theta0)^k),
-# k up to 48, loses k times the float32 rounding of theta - theta0: alum-bronze 5e-6 relative at
-# cos theta = 0.02 (channel 2: single 568.40594, double 568.40307), 3 % at mu = 1e-6.
-SINGLE_LIMITS[("sgd_bagher", "preset=alum-bronze")] = "sgd_bagher fits' G1 in float32"
+# Single-precision limits at range edges, each an open item with its cause on the model's
+# description (strict xfail: the entry goes when the case passes; tests/known.py)
+SINGLE_LIMITS = known("single")
 
 
 @tiered(FAST_EVAL, limits=SINGLE_LIMITS)
@@ -202,7 +195,6 @@ Z_ESTIMATORS = float(sps.norm.isf(sidak(1e-3, 2 * len(ESTIMATORS) * len(clbrdf.M
 
 # the quadrature estimator in every configuration: each mixture sampler's lobes (MODEL_lobe_ends)
 # must match its choice of lobe, or E is off by the lobes' difference
-QUAD_TABLE_DG1 = {"gtr": 2e-4, "sgd": 1e-4, "exppow": 1e-5, "holzschuch_pacanowski": 1e-5}
 # configurations whose weight jumps to 0 where wi crosses the horizon (no masking term): 2^24
 # evaluations do not bring the error estimate to 1e-6 (1.5e-6 to 1.2e-5), though the value is
 # within 5e-7 of the reference; each must still stop short
@@ -226,7 +218,7 @@ def test_quadrature_matches_reference(name, cid, kw):
             r = clbrdf.albedo(m, mu, estimator="quadrature", tol=1e-6)
         e_ref, err = ref.albedo(mu, tol=1e-9)
         e, est = np.ravel(r.albedo), np.ravel(r.stderr)
-        bound = np.maximum(est, 1e-6) + err + 3 * QUAD_TABLE_DG1.get(name, 0.0) * np.abs(np.ravel(e_ref))
+        bound = np.maximum(est, 1e-6) + err + 3 * m.spec.facts.lambda_g1_error * np.abs(np.ravel(e_ref))
         assert np.all(np.abs(e - np.ravel(e_ref)) <= bound), (mu, e, e_ref, e - np.ravel(e_ref), est)
         short = bool(np.any(est > 1e-6))
         assert short == ((name, cid) in QUAD_SHORT), (mu, est)

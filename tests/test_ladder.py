@@ -25,7 +25,7 @@ def test_variants_follow_the_configuration():
     assert set(labels("ggx", alpha=0.3)) == {"full", "single"} | {
         f"masking={m}{s}" for m in ("separable", "vcavity", "none") for s in ("", ", single")}
     assert labels("lambert") == ["full", "single"]
-    got = labels("schlick", **L.LADDER_CONFIGS["schlick"])
+    got = labels("schlick", **L.configs()["schlick"])
     for want in ("directional=eq17", "directional=eq15", "directional=eq12", "spectral=constant",
                  "material=single", "directional=eq12, spectral=constant, material=single"):
         assert want in got
@@ -171,7 +171,7 @@ def test_ladder_chart_labels_do_not_overprint():
     for name in ("ggx", "schlick"):             # the most variants; a model of its own
         mine = [r for r in rows if r["model"] == name]
         assert mine, name
-        fig = L.figure(mine, name, L.LADDER_CONFIGS.get(name, {}))
+        fig = L.figure(mine, name, L.configs().get(name, {}))
         assert_texts_readable(fig)
         front = L.pareto(mine, "value_error", "evals_per_s")
         assert front and all(not (o["evals_per_s"] > f["evals_per_s"] and

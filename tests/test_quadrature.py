@@ -4,7 +4,7 @@ the float64 reference's independent quadrature (clbrdf.ref).
 
 Claim (README, docs/accuracy/quadrature.md): within tol (1e-6 single, 1e-7 double by default)
 of the reference, with an error estimate at most tol, for every model at its defaults and at
-roughness 1e-3, mu from 1e-3 to 1, except the listed cases (``LIMITS``, strict xfails: each must
+roughness 1e-3, mu from 1e-3 to 1, except the cases the models' descriptions list (``LIMITS``, strict xfails: each must
 still fail). Models that tabulate Smith's Lambda or G1 differ from the reference by the tables'
 documented accuracy (docs/models.md: |dG1| <= 2e-4 GTR, 1e-4 SGD, 1e-5 exp-power), which adds
 3 |dG1| E to the bound (G changes by at most |dG1 / G1| per direction, twice in G).
@@ -18,41 +18,16 @@ import pytest
 import clbrdf
 from clbrdf.runtime import quadrature as runtime
 from clbrdf.api.albedo import QUAD_TOL
-from clbrdf.models import LAMBDA_TABLE_G1_ERROR as TABLE_DG1, MODELS
+from clbrdf.models import MODELS, get_spec
+from known import known
 from clbrdf.ref import reference
 
 MUS = (1e-3, 0.02, 0.05, 0.2, 0.5, 0.8, 1.0)
-ROUGH = {"ggx": {"alpha": 1e-3}, "beckmann": {"alpha": 1e-3}, "exppow": {"alpha": 1e-3},
-         "gtr": {"alpha": 1e-3}, "sgd": {"alpha": 1e-3},
-         "ward": {"alpha_x": 1e-3, "alpha_y": 1e-3}, "holzschuch_pacanowski": {"sigma": 1e-3}}
+ROUGH = {n: s.facts.roughest for n, s in MODELS.items() if s.facts.roughest}
 CASES = [(n, "defaults", {}) for n in MODELS] + [(n, "rough", kw) for n, kw in ROUGH.items()]
-
-# where the quadrature is off by more than the bound (measured by scripts/measure_quadrature.py,
-# docs/accuracy/quadrature.md); each must fail
-LIMITS = {
-    ("ashikhmin_shirley", "defaults", "single", 1e-3): "grazing: the lobe map's weight jumps to 0 "
-        "where wi crosses the horizon, along a curve bounding a thin strip of the sampler's square "
-        "(1.2e-6 off, estimated 1e-6)",
-    ("ashikhmin_shirley", "defaults", "single", 0.02): "grazing, as above (3.1e-6, estimated 8e-7)",
-    ("ashikhmin_shirley", "defaults", "double", 1e-3): "grazing, as above (1.1e-6)",
-    ("ashikhmin_shirley", "defaults", "double", 0.02): "grazing, as above (3.1e-6, estimated 1e-7)",
-}
-# where 2^24 evaluations do not bring the error estimate to tol (a RuntimeWarning says so; the
-# value may still be within tol): the estimate reached at that count
-SHORT = {("low_microfacet", "defaults", "double", 1e-3): 3.4e-7,
-         ("low_microfacet", "defaults", "double", 0.02): 1.2e-7,
-         ("low_microfacet", "defaults", "single", 1e-3): 1.1e-6,
-         ("gtr", "defaults", "single", 1e-3): 1.6e-6, ("gtr", "rough", "single", 1e-3): 1.1e-6,
-         ("sgd_bagher", "defaults", "single", 1e-3): 8.4e-6,
-         ("sgd_bagher", "defaults", "single", 0.02): 3.3e-6,
-         ("sgd_bagher", "defaults", "single", 0.05): 1.2e-6,
-         ("sgd_bagher", "defaults", "double", 1e-3): 6e-6,
-         ("sgd_bagher", "defaults", "double", 0.02): 2e-6,
-         ("sgd_bagher", "defaults", "double", 0.05): 1.6e-6,
-         ("sgd_bagher", "defaults", "double", 0.2): 1.3e-7,
-         ("charlie", "defaults", "single", 1e-3): 1.4e-6}
-for _k, _e in SHORT.items():
-    LIMITS.setdefault(_k, f"2^24 evaluations do not reach tol (estimate {_e:g}; RuntimeWarning)")
+# where the quadrature is off by more than the bound, or 2^24 evaluations do not bring its
+# estimate to tol (a RuntimeWarning says so): each model's description (tests/known.py)
+LIMITS = known("quadrature")
 
 _REF: dict = {}
 
@@ -65,7 +40,7 @@ def _reference(name, kw, mu):
 
 
 def _bound(name, precision, e_ref):
-    return QUAD_TOL[precision] + 3 * TABLE_DG1.get(name, 0.0) * abs(e_ref)
+    return QUAD_TOL[precision] + 3 * get_spec(name).facts.lambda_g1_error * abs(e_ref)
 
 
 FAST = {("ggx", "defaults", "single"), ("ggx", "defaults", "double"), ("ggx", "rough", "double"),

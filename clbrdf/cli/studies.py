@@ -88,9 +88,9 @@ def cmd_simplest(args) -> int:
 def cmd_ladder(args) -> int:
     names, out, command, _ = _chart_job(args)
     for n in names or ():
-        if n not in ladder.LADDER_CONFIGS:
+        if n not in ladder.configs():
             raise ParameterError(f"model={n!r} has no ladder configuration: valid models are "
-                                 f"{', '.join(ladder.LADDER_CONFIGS)}")
+                                 f"{', '.join(ladder.configs())}")
     ladder.chart(names, out, device=args.device, command=command,
                  progress=None if args.quiet else lambda s: print(s, flush=True))
     print(f"wrote {out / 'ladder.csv'}, {out / 'README.md'} and one PNG per model")
@@ -153,7 +153,7 @@ def add_parsers(sub) -> None:
     p = sub.add_parser("ladder", parents=[dev], help="chart every cheaper variant's cost "
                        "against its error",
                        description="For each model's ladder configuration "
-                                   "(clbrdf.studies.ladder.LADDER_CONFIGS): every cheaper variant's max "
+                                   "(each model description's Facts.ladder): every cheaper variant's max "
                                    "relative error of f and of E against the full model in double, "
                                    "and its measured evaluations and albedo samples per second. "
                                    "Writes DIR/ladder.csv, DIR/MODEL.png and DIR/README.md.")

@@ -1,17 +1,16 @@
 """The model registry: name -> ModelSpec.
 
 Every module in this package that defines ``SPECS`` (a tuple of ``ModelSpec``) contributes its
-models, in module order: lambert and microfacet first, then the others by name.
+models, in module order: lambert and microfacet first, then the others by name. ``register``
+adds a model described outside the package (its kernel header an absolute path, its reference
+a module of its own: docs/adding-a-model.md).
 """
 import importlib
 import pkgutil
 
-from .spec import ModelSpec, ParameterError
+from .spec import Facts, ModelSpec, ParameterError  # noqa: F401  (Facts: for model modules)
 
 _FIRST = ("lambert", "microfacet")
-# max |G1 error| of the tabulated Smith Lambda over every accepted parameter and direction
-# (scripts/measure_lambda_tables.py, docs/models/distributions.md)
-LAMBDA_TABLE_G1_ERROR = {"gtr": 2e-4, "sgd": 1e-4, "exppow": 1e-5, "holzschuch_pacanowski": 1e-5}
 
 
 def _collect() -> dict[str, ModelSpec]:
@@ -34,3 +33,16 @@ def get_spec(name: str) -> ModelSpec:
         return MODELS[name]
     except KeyError:
         raise ParameterError(f"unknown model {name!r}; models: {', '.join(MODELS)}") from None
+
+
+def register(spec: ModelSpec) -> ModelSpec:
+    """Add a model to the registry (``clbrdf.MODELS``): every API, table, study and command then
+    takes it by name. Its ``header`` is a kernel header's absolute path (or a header of
+    clbrdf.kernels), its ``ref`` the module that holds its float64 reference
+    (``REFERENCES = {name: Reference subclass}``)."""
+    if not isinstance(spec, ModelSpec):
+        raise ParameterError(f"spec={spec!r} is not valid: give a clbrdf.models.spec.ModelSpec")
+    if spec.name in MODELS:
+        raise ParameterError(f"model {spec.name!r} is registered already")
+    MODELS[spec.name] = spec
+    return spec

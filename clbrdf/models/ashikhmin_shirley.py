@@ -29,7 +29,7 @@ albedo, kd = Lambertian albedo, and no rd.
 """
 import numpy as np
 
-from .spec import ModelSpec, Option, Param, ParameterError
+from .spec import Facts, ModelSpec, Option, Param, ParameterError
 
 PARAMS = (
     Param("nu", "Phong exponent along the tangent u (x)", 0.0, 1e7, 100.0),
@@ -79,6 +79,20 @@ SPEC = ModelSpec(
     options=OPTIONS,
     configure_fn=configure,
     anisotropic_fn=lambda d, v: bool(np.any(np.asarray(v["nu"]) != np.asarray(v["nv"]))),
+    facts=Facts(
+        sweeps=((("nu", "nv"), (0.0, 1.0, 10.0, 1e2, 1e3, 1e4, 1e5)),),
+        capi=(("ashikhmin_shirley", {"nu": 20.0, "nv": 200.0, "rs": 0.3, "rd": 0.4}),
+              # a published fit (RGB, every parameter from the preset)
+              ("ashikhmin_shirley-preset", {"preset": "alum-bronze:E1"})),
+        sharp={"nu": 1e4, "nv": 1e4},
+        ladder={"nu": 100.0, "nv": 100.0, "fresnel": "dielectric", "eta": 1.5, "kd": 0.2},
+        # the quadrature at grazing (scripts/measure_quadrature.py, docs/accuracy/quadrature.md):
+        # the lobe map's weight jumps to 0 where wi crosses the horizon, along a curve bounding
+        # a thin strip of the sampler's square
+        known={("quadrature", "defaults", "single", 1e-3): "grazing (1.2e-6 off, estimated 1e-6)",
+               ("quadrature", "defaults", "single", 0.02): "grazing (3.1e-6, estimated 8e-7)",
+               ("quadrature", "defaults", "double", 1e-3): "grazing (1.1e-6)",
+               ("quadrature", "defaults", "double", 0.02): "grazing (3.1e-6, estimated 1e-7)"}),
 )
 
 SPECS = (SPEC,)

@@ -8,7 +8,7 @@ with G from Estevez and Kulla's fitted Lambda (``visibility=charlie``) or Neubel
 Pettineo's visibility 1 / (4 (cos_i + cos_o - cos_i cos_o)) in place of G / (4 cos_i cos_o)
 (``visibility=ashikhmin``, Filament's cloth). glTF's alpha is sheenRoughness^2.
 """
-from .spec import ModelSpec, Option, Param, ParameterError
+from .spec import Facts, ModelSpec, Option, Param, ParameterError
 
 PARAMS = (
     Param("alpha", "roughness (glTF: sheenRoughness^2)", 1e-3, 1.0, 0.25),
@@ -37,4 +37,10 @@ SPECS = (ModelSpec(
     options=(Option("visibility", "masking: Estevez-Kulla's fitted Lambda, or Ashikhmin's "
                     "visibility (Neubelt)", VISIBILITY, "charlie"),),
     configure_fn=configure,
+    facts=Facts(
+        sweeps=((("alpha",), (1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 1.0)),),
+        capi=(("charlie", {"alpha": 0.4}),
+              ("charlie-ashikhmin", {"alpha": 0.2, "visibility": "ashikhmin"})),
+        known={("check", "defaults", "energy"): "E = 1.063 at mu = 1e-6: the sheen lobe gains at grazing",
+               ("quadrature", "defaults", "single", 1e-3): "2^24 evaluations do not reach tol (estimate 1.4e-06; RuntimeWarning)"}),
 ),)

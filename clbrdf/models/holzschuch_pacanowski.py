@@ -13,7 +13,7 @@ albedo is at most 1) or ``paper`` (E = pi (1 + 1/(a^2 lambda^2)) as printed).
 is sigma, ``p`` the kurtosis; isotropic; sampler ``ndf`` (eq 22-23).
 """
 from . import microfacet
-from .spec import ModelSpec, Option, Param
+from .spec import Facts, ModelSpec, Option, Param
 
 WAVELENGTHS = {"red": 0.645, "green": 0.526, "blue": 0.444}
 
@@ -47,6 +47,14 @@ def configure(opts: dict, given: set):
     return defines, tuple(p.name for p in PARAMS), {"diffraction_norm": norm, "band": band}
 
 
+# clbrdf check at p = lo in double precision: E = 1.8e-11 (mu = 0.5) and 7e-10 (mu = 1) by
+# quadrature, carried by about one sample in 1e6 (y ~ Gamma(10, 1), tan theta_h = sigma y^5:
+# nearly every normal is grazing): runs of 2^16 samples report 0 +- 0. In single precision the
+# 8-ulp floor (5e-7) covers it.
+P_LO_DOUBLE = "E ~ 1e-11 carried by one sample in 1e6: 2^16 samples report 0 +- 0"
+SWEPT = microfacet.SWEPT
+SHAPE_P = (0.1, 0.2, 0.5, 1.0, 2.0, 3.5, 5.0)     # the stability map's shapes p
+
 HOLZSCHUCH_PACANOWSKI = ModelSpec(
     name="holzschuch_pacanowski",
     ref="holzschuch_pacanowski",
@@ -58,6 +66,13 @@ HOLZSCHUCH_PACANOWSKI = ModelSpec(
     params=PARAMS,
     options=OPTIONS,
     configure_fn=configure,
+    facts=Facts(sweeps=((("sigma",), SWEPT), (("p",), SHAPE_P)),
+                capi=(("holzschuch_pacanowski", {}),),
+                sharp={"sigma": 0.01}, roughest={"sigma": 1e-3},
+                ladder={"kd": 0.1, "kw": 1.0, "sigma": 0.1},
+                lambda_g1_error=1e-5,
+                known={("check", "p=lo-double", "albedo vs quadrature"): P_LO_DOUBLE,
+                       ("check", "p=lo-double", "stderr honest"): P_LO_DOUBLE}),
 )
 
 EXPPOW = microfacet.spec(
@@ -65,6 +80,14 @@ EXPPOW = microfacet.spec(
     "Holzschuch & Pacanowski 2015 eq 18-19 (D), eq 20-21 (Smith Lambda, tabulated), eq 22-23 "
     "(sampling)",
     header="dist_exppow.h", shape=P_PARAM, samplers=("ndf",), aniso=False,
-    ref="holzschuch_pacanowski")
+    ref="holzschuch_pacanowski",
+    facts=Facts(sweeps=((("alpha",), SWEPT), (("p",), SHAPE_P)),
+                capi=(("exppow", {"alpha": 0.3, "p": 0.7, "f0": 0.2}),),
+                sharp={"alpha": 0.01}, roughest={"alpha": 1e-3},
+                ladder={"alpha": 0.3, "p": 0.9, "fresnel": "dielectric", "eta": 1.5},
+                lambda_g1_error=1e-5,
+                known={("single", "f0=lo"): microfacet.SCHLICK_F0_LO,
+                       ("check", "p=lo-double", "albedo vs quadrature"): P_LO_DOUBLE,
+                       ("check", "p=lo-double", "stderr honest"): P_LO_DOUBLE}))
 
 SPECS = (HOLZSCHUCH_PACANOWSKI, EXPPOW)

@@ -1,5 +1,5 @@
 """Lambertian reflection: f = kd / pi. Kernel: kernels/lambert.h."""
-from .spec import ModelSpec, Param
+from .spec import Facts, ModelSpec, Param
 
 SPEC = ModelSpec(
     name="lambert",
@@ -9,6 +9,8 @@ SPEC = ModelSpec(
     header="lambert.h",
     prefix="lambert",
     params=(Param("kd", "diffuse albedo", 0.0, 1.0, 1.0, spectral=True),),
+    facts=Facts(capi=(("lambert", {}), ("lambert-rgb", {"kd": [0.2, 0.5, 0.9], "channels": 3})),
+                sharp={}),
 )
 
 SPECS = (SPEC,)

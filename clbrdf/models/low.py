@@ -26,7 +26,7 @@ albedo/pi, LowSmooth as A (1 + B |Ip + Op|^2)^-C F_cook(eta, sqrt(1 - |Ip - Op|^
 LowMicrofacetFit as A D G F_cook(eta, wi.h) / (pi cos_i cos_o) with D = (1 + B (1 - h.z))^-C and
 V-groove G, which are exactly these models with kd = albedo, a = A, b = B, c = C, eta = eta.
 """
-from .spec import ModelSpec, Option, Param
+from .spec import Facts, ModelSpec, Option, Param
 
 PARAMS_ABC = (
     Param("a", "A of the ABC function S = A / (1 + B f^2)^C (eq 11): scale of the lobe",
@@ -62,6 +62,10 @@ def _configure_microfacet(opts: dict, given: set):
     return (("LOW_DIFFUSE", str(int(diffuse))),), used, {}
 
 
+# the stability map's b (from a near-constant lobe to a spike) and c (around 1)
+SWEPT_B = (1e-6, 1e-2, 1.0, 1e2, 1e4, 1e6, 1e8)
+SWEPT_C = (0.1, 0.5, 0.9, 1 - 1e-4, 1 - 1e-7, 1.0, 1 + 1e-7, 1 + 1e-4, 2.0, 10.0)
+
 LOW_SMOOTH = ModelSpec(
     name="low_smooth",
     ref="low",
@@ -73,6 +77,9 @@ LOW_SMOOTH = ModelSpec(
     options=(Option("lobes", "one ABC lobe with Fresnel (eq 12) or two lobes (eq 34)",
                     ("one", "two"), "one"),),
     configure_fn=_configure_smooth,
+    facts=Facts(sweeps=((("b",), SWEPT_B), (("c",), SWEPT_C)),
+                capi=(("low_smooth", {}),), sharp={"b": 1e4},
+                ladder={"lobes": "two", "kd": 0.1}),
 )
 
 LOW_MICROFACET = ModelSpec(
@@ -84,6 +91,11 @@ LOW_MICROFACET = ModelSpec(
     prefix="low_microfacet",
     params=PARAMS_ABC,
     configure_fn=_configure_microfacet,
+    facts=Facts(sweeps=((("b",), SWEPT_B), (("c",), SWEPT_C)),
+                capi=(("low_microfacet", {}),), sharp={"b": 1e4},
+                known={("quadrature", "defaults", "double", 1e-3): "2^24 evaluations do not reach tol (estimate 3.4e-07; RuntimeWarning)",
+                       ("quadrature", "defaults", "double", 0.02): "2^24 evaluations do not reach tol (estimate 1.2e-07; RuntimeWarning)",
+                       ("quadrature", "defaults", "single", 1e-3): "2^24 evaluations do not reach tol (estimate 1.1e-06; RuntimeWarning)"}),
 )
 
 SPECS = (LOW_SMOOTH, LOW_MICROFACET)

@@ -12,9 +12,15 @@ Other distributions plug in with ``spec(name, ..., header="dist_<name>.h", shape
 the header provides <name>_D, <name>_Lambda, <name>_sample_ndf (and <name>_sample_vndf) on a
 ``Microfacet`` whose ``shape`` field holds the extra parameter.
 """
-from .spec import ModelSpec, Option, Param, ParameterError
+from .spec import Facts, ModelSpec, Option, Param, ParameterError
 
 ROUGH = (1e-4, 10.0)
+# the roughnesses of the stability map (clbrdf.studies.stability), from near-mirror to matte
+SWEPT = (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 1.0)
+# single precision at f0 = 0: Schlick's (1 - c)^5 carries the float32 rounding of c = wi.h, off by
+# 5 eps / (1 - c) relative (6.5e-5 at 1 - c = 2.4e-3, F = 8e-14); the stable form
+# 1 - c = |wo - wi|^2 / (4 (1 + c)) needs wo and wi at each Fresnel call
+SCHLICK_F0_LO = "Schlick (1 - c)^5 from a rounded c at f0 = 0"
 
 PARAMS = (
     Param("alpha", "roughness (isotropic)", *ROUGH, 0.5),
@@ -100,7 +106,8 @@ def critical_mu(defines: dict, values: dict, channels: int):
 
 
 def spec(name: str, title: str, reference: str, *, header: str | None = None,
-         shape: Param | None = None, samplers=("vndf", "ndf"), aniso: bool = True, ref: str = "microfacet") -> ModelSpec:
+         shape: Param | None = None, samplers=("vndf", "ndf"), aniso: bool = True,
+         ref: str = "microfacet", facts: Facts = Facts()) -> ModelSpec:
     """A microfacet model with distribution ``name`` (see the module docstring)."""
     params = PARAMS + ((shape,) if shape else ())
     if not aniso:
@@ -115,13 +122,30 @@ def spec(name: str, title: str, reference: str, *, header: str | None = None,
                      prefix="microfacet", params=params, options=options,
                      configure_fn=configure(name, shape.name if shape else None, header, samplers),
                      notes=notes, anisotropic_fn=lambda d, v: d.get("MF_ANISO") == "1",
-                     mu_kinks_fn=critical_mu, ref=ref)
+                     mu_kinks_fn=critical_mu, ref=ref, facts=facts)
 
 
 GGX = spec("ggx", "Microfacet, GGX (Trowbridge-Reitz) distribution",
-           "Walter et al. 2007 eq 33 (D), Smith Lambda; Heitz 2018 / Dupuy & Benyoub 2023 (VNDF)")
+           "Walter et al. 2007 eq 33 (D), Smith Lambda; Heitz 2018 / Dupuy & Benyoub 2023 (VNDF)",
+           facts=Facts(
+               sweeps=((("alpha",), SWEPT),),
+               capi=(("ggx", {"alpha": 0.3}),
+                     ("ggx-schlick-rgb", {"alpha": 0.15, "f0": [0.9, 0.6, 0.3], "channels": 3}),
+                     ("ggx-aniso-conductor", {"alpha_x": 0.05, "alpha_y": 0.4, "eta": 0.2, "k": 3.0}),
+                     ("ggx-dielectric-diffuse", {"alpha": 0.5, "eta": 1.5, "kd": 0.3}),
+                     ("ggx-separable-ndf", {"alpha": 0.2, "masking": "separable", "sampler": "ndf"})),
+               sharp={"alpha": 0.01}, roughest={"alpha": 1e-3},
+               ladder={"alpha": 0.3, "fresnel": "dielectric", "eta": 1.5, "kd": 0.2},
+               known={("single", "f0=lo"): SCHLICK_F0_LO}))
 BECKMANN = spec("beckmann", "Microfacet, Beckmann distribution",
-                "Walter et al. 2007 eq 25 (D), eq 27 (Lambda); Heitz & d'Eon 2014 (VNDF)")
+                "Walter et al. 2007 eq 25 (D), eq 27 (Lambda); Heitz & d'Eon 2014 (VNDF)",
+                facts=Facts(
+                    sweeps=((("alpha",), SWEPT),),
+                    capi=(("beckmann", {"alpha": 0.25}),
+                          ("beckmann-vcavity", {"alpha": 0.6, "masking": "vcavity", "f0": 0.5})),
+                    sharp={"alpha": 0.01}, roughest={"alpha": 1e-3},
+                    ladder={"alpha": 0.3, "fresnel": "conductor", "eta": 0.2, "k": 3.0},
+                    known={("single", "f0=lo"): SCHLICK_F0_LO}))
 
 SPECS = (GGX, BECKMANN)
 

@@ -76,6 +76,34 @@ class Config:
         return self.channels if name in self.spectral else 1
 
 
+@dataclass(frozen=True)
+class Facts:
+    """What the studies and tests need to know of a model, stated on its description: a new
+    model is its kernel header, its description, its reference and its doc page, with no edit in
+    any list elsewhere (docs/adding-a-model.md)."""
+    # the stability map (clbrdf.studies.stability): ((parameters set together, values), ...);
+    # () sweeps nothing (the defaults only)
+    sweeps: tuple = ()
+    # the C API cross-checks (clbrdf.studies.capi): ((case name, keywords), ...)
+    capi: tuple = ()
+    # a near-mirror lobe's parameters for the accuracy chart (clbrdf.studies.accuracy): None
+    # leaves the model out, {} charts its defaults only
+    sharp: dict | None = None
+    # the roughest lobe the deterministic quadrature is held to (tests/test_quadrature.py)
+    roughest: dict | None = None
+    # the full configuration the ladder charts (clbrdf.studies.ladder); None: not charted
+    ladder: dict | None = None
+    # max |G1 error| of a tabulated Smith Lambda over its whole range (docs/models/distributions.md)
+    lambda_g1_error: float = 0.0
+    # what the model is known to fail, each with its cause (strict expected failures of the tests:
+    # an entry goes when the case passes; tests/known.py gathers them): ("check", CONFIGURATION,
+    # CHECK) a check of clbrdf check fails (CONFIGURATION: "defaults" or an id of
+    # studies.check.configurations, "-double" for double precision); ("single", CONFIGURATION)
+    # single against double precision; ("quadrature", "defaults" or "rough", PRECISION, MU) the
+    # quadrature beyond its bound
+    known: dict = field(default_factory=dict)
+
+
 @dataclass
 class ModelSpec:
     name: str
@@ -96,8 +124,10 @@ class ModelSpec:
     # kinks, NaN for none), e.g. the critical angle of total internal reflection; averages over
     # mu (E_avg) split their Gauss-Legendre rule there. None: E is smooth in mu.
     mu_kinks_fn: Callable | None = None
-    # the float64 reference: a module of clbrdf/ref/ whose REFERENCES has this model
+    # the float64 reference: a module of clbrdf/ref/ whose REFERENCES has this model, or the
+    # full name of a module elsewhere (a model registered from outside the package)
     ref: str = ""
+    facts: Facts = field(default_factory=Facts)
 
     def anisotropic(self, cfg: "Config", values: dict) -> bool:
         return bool(self.anisotropic_fn and self.anisotropic_fn(dict(cfg.defines), values))

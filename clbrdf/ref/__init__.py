@@ -18,6 +18,7 @@ A subclass implements one channel (``eval1``, ``albedo1``) and the sampler's den
 from __future__ import annotations
 
 import importlib
+import importlib.util
 
 import numpy as np
 
@@ -87,5 +88,7 @@ def reference(model, **kwargs) -> Reference:
             kwargs = {**p.options, **p.params, **kwargs}
             channels = 3 if channels is None else channels
         config, params = spec.configure(channels=channels or 1, **kwargs)
-    module = importlib.import_module(f"{__name__}.{spec.ref}")
+    # a reference of this package, or a module elsewhere (a model registered from outside)
+    own = importlib.util.find_spec(f"{__name__}.{spec.ref}") is not None
+    module = importlib.import_module(f"{__name__}.{spec.ref}" if own else spec.ref)
     return module.REFERENCES[spec.name](spec, config, params)

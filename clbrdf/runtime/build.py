@@ -42,7 +42,9 @@ def get_include() -> str:
 
 @lru_cache(maxsize=None)
 def read_kernel(name: str) -> str:
-    return (kernel_dir() / name).read_text()
+    """A header of clbrdf.kernels, or a model's header given by its absolute path."""
+    path = Path(name)
+    return (path if path.is_absolute() else kernel_dir() / name).read_text()
 
 
 def expand(name: str, seen: set | None = None) -> str:

@@ -17,36 +17,16 @@ from pathlib import Path
 import numpy as np
 
 from ..api.model import Model
+from ..models import MODELS
 from ..runtime.build import kernel_dir, program_source, table_data
 from ..runtime.device import get_device
 
-CASES = [
-    ("lambert", "lambert", {}),
-    ("lambert-rgb", "lambert", {"kd": [0.2, 0.5, 0.9], "channels": 3}),
-    ("ggx", "ggx", {"alpha": 0.3}),
-    ("ggx-schlick-rgb", "ggx", {"alpha": 0.15, "f0": [0.9, 0.6, 0.3], "channels": 3}),
-    ("ggx-aniso-conductor", "ggx", {"alpha_x": 0.05, "alpha_y": 0.4, "eta": 0.2, "k": 3.0}),
-    ("ggx-dielectric-diffuse", "ggx", {"alpha": 0.5, "eta": 1.5, "kd": 0.3}),
-    ("ggx-separable-ndf", "ggx", {"alpha": 0.2, "masking": "separable", "sampler": "ndf"}),
-    ("beckmann", "beckmann", {"alpha": 0.25}),
-    ("beckmann-vcavity", "beckmann", {"alpha": 0.6, "masking": "vcavity", "f0": 0.5}),
-    ("ashikhmin_shirley", "ashikhmin_shirley", {"nu": 20.0, "nv": 200.0, "rs": 0.3, "rd": 0.4}),
-    ("charlie", "charlie", {"alpha": 0.4}),
-    ("charlie-ashikhmin", "charlie", {"alpha": 0.2, "visibility": "ashikhmin"}),
-    ("low_smooth", "low_smooth", {}),
-    ("low_microfacet", "low_microfacet", {}),
-    ("schlick", "schlick", {}),
-    ("schlick-aniso", "schlick", {"p": 0.2, "psi": 0.5}),
-    ("ward", "ward", {"alpha_x": 0.1, "alpha_y": 0.3, "kd": 0.2}),
-    # models that read the generated tables (kernels/clbrdf_tables.h loads them)
-    ("gtr", "gtr", {"alpha": 0.3, "gamma": 1.5}),
-    ("sgd", "sgd", {"alpha": 0.2, "p": 0.8}),
-    ("exppow", "exppow", {"alpha": 0.3, "p": 0.7, "f0": 0.2}),
-    ("holzschuch_pacanowski", "holzschuch_pacanowski", {}),
-    ("sgd_bagher", "sgd_bagher", {}),
-    # a published fit (RGB, every parameter from the preset)
-    ("ashikhmin_shirley-preset", "ashikhmin_shirley", {"preset": "alum-bronze:E1"}),
-]
+
+def cases() -> list:
+    """(case name, model, keywords) of every model's description (``Facts.capi``)."""
+    return [(c, s.name, kw) for s in MODELS.values() for c, kw in s.facts.capi]
+
+
 WARN = ["-Wall", "-Wextra", "-Werror", "-pedantic"]
 
 _BODY = r"""
@@ -99,7 +79,7 @@ kernel void run(global const real_t *in, Tables T, global real_t *out)
 
 
 def case(name: str):
-    return next(c for c in CASES if c[0] == name)
+    return next(c for c in cases() if c[0] == name)
 
 
 def model(name: str, precision: str, device=None) -> Model:

@@ -1,7 +1,7 @@
 """The stability map: where each estimator fails, ``clbrdf stability`` and ``stability_map()``.
 
 For every model, each parameter that sets the lobe is swept to the edges of its range and past
-where users go (``SWEEPS``; the other parameters at their defaults), against mu from the smallest
+where users go (its description's ``Facts.sweeps``; the other parameters at their defaults), against mu from the smallest
 value the precision accepts to 1 (``MUS``). At every cell each Monte Carlo estimator (uniform,
 cosine, brdf, mis; brdf and mis with each of the model's samplers; Philox points) runs in single
 and double precision, and is compared with the float64 reference (``clbrdf.ref``, its error below
@@ -47,8 +47,8 @@ import numpy as np
 from ..api.albedo import albedo
 from ..api.model import Model
 from ..api.useless import FLAGS, USELESS, Z_BIAS, read_csv, samplers, sweep_label
-from ..models import LAMBDA_TABLE_G1_ERROR, get_spec
-from ..models.spec import MU_MIN, ParameterError
+from ..models import MODELS, get_spec
+from ..models.spec import MU_MIN
 from ..ref import reference
 from ..tables.outputs import csv_text, write_together
 from .check import (
@@ -60,28 +60,13 @@ from .check import (
     check_weight,
 )
 
-ROUGH = (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 1.0)
-SHAPE_P = (0.1, 0.2, 0.5, 1.0, 2.0, 3.5, 5.0)
-NEAR_ONE = (0.1, 0.5, 0.9, 1 - 1e-4, 1 - 1e-7, 1.0, 1 + 1e-7, 1 + 1e-4, 2.0, 10.0)
-ABC_B = (1e-6, 1e-2, 1.0, 1e2, 1e4, 1e6, 1e8)
-# model: [(parameters set together, values)]; () sweeps nothing (the defaults only)
-SWEEPS = {
-    "lambert": [((), (0.0,))],
-    "ggx": [(("alpha",), ROUGH)],
-    "beckmann": [(("alpha",), ROUGH)],
-    "gtr": [(("alpha",), (1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 0.999)),
-            (("gamma",), (0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0))],
-    "sgd": [(("alpha",), (1e-5,) + ROUGH)],
-    "exppow": [(("alpha",), ROUGH), (("p",), SHAPE_P)],
-    "ashikhmin_shirley": [(("nu", "nv"), (0.0, 1.0, 10.0, 1e2, 1e3, 1e4, 1e5))],
-    "schlick": [(("r",), (1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 0.1, 0.5, 1.0))],
-    "low_smooth": [(("b",), ABC_B), (("c",), NEAR_ONE)],
-    "low_microfacet": [(("b",), ABC_B), (("c",), NEAR_ONE)],
-    "holzschuch_pacanowski": [(("sigma",), ROUGH), (("p",), SHAPE_P)],
-    "ward": [(("alpha_x", "alpha_y"), (1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 1.0))],
-    "sgd_bagher": [(("alpha",), (1e-5,) + ROUGH)],
-    "charlie": [(("alpha",), (1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 1.0))],
-}
+
+def sweeps(name: str) -> tuple:
+    """The model's sweeps ((parameters set together, values), ...) from its description
+    (``Facts.sweeps``); a model without one is mapped at its defaults."""
+    return get_spec(name).facts.sweeps or (((), (0.0,)),)
+
+
 MUS = (1e-12, 1e-6, 1e-4, 1e-3, 1e-2, 0.1, 0.3, 0.6, 1.0)
 ESTIMATORS = ("uniform", "cosine", "brdf", "mis")
 SAMPLES = 1 << 16
@@ -141,7 +126,7 @@ def references(name: str, samples: int = SAMPLES, cache: dict | None = None,
                workers: int | None = None) -> dict:
     """{(sweep, value, mu): (E_ref, err)} for every cell of the model, computed in a pool of
     processes; cells in ``cache`` (from an earlier map) are not recomputed."""
-    cells = [(name, names, v, mu, samples) for names, values in SWEEPS[name] for v in values
+    cells = [(name, names, v, mu, samples) for names, values in sweeps(name) for v in values
              for mu in MUS]
     out, todo = {}, []
     for c in cells:
@@ -167,7 +152,7 @@ def measure(name: str, refs: dict, *, samples: int = SAMPLES, precisions=("singl
             progress=None) -> tuple[list[dict], list[dict]]:
     """Rows of FIELDS (one per cell, estimator, sampler and precision) and of CHECK_FIELDS."""
     rows, checks = [], []
-    for names, values in SWEEPS[name]:
+    for names, values in sweeps(name):
         sweep = sweep_label(names)
         vals = np.asarray(values, float)
         for prec in precisions:
@@ -253,7 +238,7 @@ def _quadrature_rows(name, names, vals, mus, prec, e_ref, r_err, eps_floor, swee
     e = np.broadcast_to(np.asarray(r.albedo, float), e_ref.shape)
     err = np.broadcast_to(np.asarray(r.stderr, float), e_ref.shape)
     ev = np.broadcast_to(np.asarray(r.evaluations, float), e_ref.shape)
-    table = 3 * LAMBDA_TABLE_G1_ERROR.get(name, 0.0) * np.abs(e_ref)
+    table = 3 * get_spec(name).facts.lambda_g1_error * np.abs(e_ref)
     allowed = np.maximum(err, r.tol) + table + r_err + eps_floor
     rows = []
     for i, v in enumerate(vals):
@@ -475,10 +460,7 @@ def stability_map(models=None, out="stability", *, samples: int = SAMPLES,
     """Measure and write stability.csv, checks.csv, MODEL.png and README.md to ``out`` (staged:
     a kill leaves the old files or the new ones). References are taken from ``out``'s earlier
     stability.csv where it has the cell. ``before``: an earlier stability.csv to compare with."""
-    names = [get_spec(n).name for n in (models or list(SWEEPS))]
-    for n in names:
-        if n not in SWEEPS:
-            raise ParameterError(f"model={n!r} has no sweep in clbrdf.studies.stability.SWEEPS")
+    names = [get_spec(n).name for n in (models or list(MODELS))]
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     cache = ref_cache(out / "stability.csv")
