@@ -13,6 +13,11 @@ import warnings
 from pathlib import Path
 
 
+def md_text(s: str) -> str:
+    """Notes as Markdown text: C array shapes such as E[32 r][32 cos] are not link references."""
+    return s.replace("][", "]\\[")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", default="docs/tables.md")
@@ -28,7 +33,7 @@ def main():
              f"largest standard error of a cell. *interpolation*: the largest |lookup - direct "
              f"estimate| halfway between neighbouring samples on every axis (the consumer's own "
              f"interpolation; includes the encoding's rounding and both estimates' noise), and "
-             f"where. Against the tables the renderers ship: README, 'Albedo tables in the "
+             f"where. Against the tables the renderers ship: docs/guide.md, 'Albedo tables in the "
              f"layouts renderers load'; against the quadrature: benchmarks/RESULTS.md "
              f"(bench_layouts).", ""]
     for name, lay in layouts().items():
@@ -36,7 +41,7 @@ def main():
         tables = make_layout(name, qmc=True)
         sec = time.perf_counter() - t0
         lines += [f"## `{name}`: {lay['consumer']}", "", f"Source: {lay['source']}.", "",
-                  lay.get("notes", ""), "",
+                  md_text(lay.get("notes", "")), "",
                   "| table | quantity | shape | stored as | stderr | interpolation (where) |",
                   "|---|---|---|---|---:|---|"]
         for tname, t in tables.items():

@@ -600,7 +600,7 @@ def test_cli_generic_table_to_header_and_exr(tmp_path):
 
 
 # ---------------------------------------------------------------------------------------------
-# the README's worked example: energy compensation
+# the user guide's worked example: energy compensation
 
 def test_white_furnace_after_compensation_is_one_within_the_table_error():
     """Turquin's f_ss / E and Kulla-Conty's f_ss + f_ms with the Cycles-layout tables give an

@@ -2,7 +2,7 @@
 square (kernels/integrators.cl, quadrature_panels; clbrdf/runtime/quadrature.py, run_quadrature), against
 the float64 reference's independent quadrature (clbrdf.ref).
 
-Claim (README, docs/accuracy/quadrature.md): within tol (1e-6 single, 1e-7 double by default)
+Claim (docs/guide.md, docs/accuracy/quadrature.md): within tol (1e-6 single, 1e-7 double by default)
 of the reference, with an error estimate at most tol, for every model at its defaults and at
 roughness 1e-3, mu from 1e-3 to 1, except the cases the models' descriptions list (``LIMITS``, strict xfails: each must
 still fail). Models that tabulate Smith's Lambda or G1 differ from the reference by the tables'

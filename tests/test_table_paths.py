@@ -198,3 +198,20 @@ def test_chart_and_files_of_every_axis_kind(case, tmp_path):
     avg = (tmp_path / "t.avg.csv").read_text().splitlines()
     assert "phi" not in avg[1].split(",")
     print(_table_summary(t, 0.0, written))
+
+
+def test_table_as_an_xarray_dataset():
+    """Table.to_xarray: named dimensions, each axis a coordinate with its spacing and mapping,
+    E and E_stderr over (mu, r, channel), E_avg over r alone, the same numbers."""
+    xr = pytest.importorskip("xarray")
+    t = albedo_table("ggx", {"mu": "0.2:1:3", "r": "0.2:1:2:sqrt"}, samples=256, channels=3,
+                     f0=[0.9, 0.5, 0.1])
+    ds = t.to_xarray()
+    assert isinstance(ds, xr.Dataset)
+    assert ds["E"].dims == ("mu", "r", "channel") and ds["E_avg"].dims == ("r", "channel")
+    assert list(ds["channel"].values) == ["R", "G", "B"]
+    assert ds["r"].attrs["mapping"] == "alpha = r^2" and ds["r"].attrs["spacing"] == "sqrt"
+    np.testing.assert_array_equal(ds["E"].values, t["E"])
+    np.testing.assert_array_equal(ds["E_stderr"].values, t["E_stderr"])
+    np.testing.assert_array_equal(ds["E_avg"].sel(channel="G").values, t["E_avg"][..., 1])
+    assert json.loads(ds.attrs["clbrdf"])["computed"]["model"] == "ggx"
