@@ -26,7 +26,7 @@ from scipy import stats as sps
 import clbrdf
 from clbrdf.studies.check import configurations
 from clbrdf.studies.stats import sidak
-from clbrdf.ref import reference
+from clbrdf.ref import Reference, reference
 from known import known
 
 # models whose kernels tabulate the Smith Lambda (relative tolerance of eval and pdf)
@@ -113,12 +113,29 @@ def test_albedo_matches_reference(name, cid, kw):
 
 
 def test_reference_interface_is_registered_for_every_model():
-    """Each description names a reference whose class implements the whole interface."""
+    """Each description names a reference whose class implements the whole interface: its own
+    pdf, its values (eval1, or eval for a family whose formula mixes channels) and its albedo
+    (albedo1 or albedo): the base class defines them only to raise NotImplementedError; and a
+    boolean reciprocity."""
     for name, spec in clbrdf.MODELS.items():
-        ref = reference(name)
-        for method in ("eval", "pdf", "albedo"):
-            assert callable(getattr(ref, method)), (name, method)
-        assert isinstance(ref.reciprocal, bool), name
+        cls = type(reference(name))
+        assert issubclass(cls, Reference) and cls is not Reference, name
+        own = {m for m in ("eval1", "pdf", "albedo1", "eval", "albedo")
+               if getattr(cls, m) is not getattr(Reference, m)}
+        assert "pdf" in own, (name, own)
+        assert own & {"eval1", "eval"} and own & {"albedo1", "albedo"}, (name, own)
+        assert isinstance(cls.reciprocal, bool), name
+
+
+def test_the_interface_check_can_fail():
+    """A reference that leaves albedo1 to the base class is caught by the check above."""
+    class Partial(Reference):
+        def eval1(self, wo, wi, v, c):
+            return 0.0
+
+        def pdf(self, wo, wi):
+            return 0.0
+    assert Partial.albedo1 is Reference.albedo1 and Partial.eval is Reference.eval
 
 
 def _perturbed_spread(fn, wo, wi, k=6, seed=3):
