@@ -1,9 +1,10 @@
 """Ashikhmin & Shirley 2000 (``ashikhmin_shirley``): specular eq 16, diffuse eq 14, the sampler of
 eq 19-20 with the lobe mixture, the paper's energy claims, and Löw et al.'s fits as presets.
 
-Reference: clbrdf.ref.ashikhmin_shirley (float64, eq 16 as printed on the unit half vector). The
-kernels see float32-rounded inputs in single precision; the reference normalises them. Single
-precision tolerance: 5e-6 relative plus the conditioning of the inputs' rounding (see ``cond``).
+What every model gets (values and densities against the reference, single against double
+precision, RGB, the sampler's chi-square and weights, the albedo) is the conformance battery's
+(tests/test_conformance.py) and clbrdf check's (tests/test_check.py); this file keeps what is
+specific to the paper.
 
 ``python tests/test_ashikhmin_shirley.py`` prints the numbers of docs/models/ashikhmin_shirley.md
 (energy sweep of the specular term, Figure 2 furnace value).
@@ -11,7 +12,6 @@ precision tolerance: 5e-6 relative plus the conditioning of the inputs' rounding
 from __future__ import annotations
 
 import math
-import zlib
 
 import numpy as np
 import pytest
@@ -19,22 +19,10 @@ import pytest
 import clbrdf
 import stats as S
 from clbrdf.models import presets
-from clbrdf.ref import microfacet as R
 from clbrdf.ref import ashikhmin_shirley as A
 
 F32 = np.float32
 NAME = "ashikhmin_shirley"
-
-CONFIGS = {
-    "iso": dict(nu=10.0, nv=10.0, rs=0.05),
-    "aniso": dict(nu=1000.0, nv=10.0, rs=0.3),
-    "sharp": dict(nu=1e4, nv=5e4, rs=0.9),
-    "plastic": dict(nu=100.0, nv=20.0, rs=0.05, rd=0.7),
-    "broad": dict(nu=0.5, nv=2.0, rs=0.5, rd=0.3),
-    "low": dict(nu=300.0, nv=300.0, eta=1.6, ks=1.3, kd=0.2),
-}
-IDS = list(CONFIGS)
-PRECISIONS = {"single": (S.EPS32, 5e-6, 1e-33), "double": (S.EPS64, 1e-11, 1e-300)}
 
 
 def rounded(precision, **kw):
@@ -85,27 +73,6 @@ assert_close = S.assert_close
 # ---------------------------------------------------------------------------------------------
 # values
 
-@pytest.mark.parametrize("width", [1, 16])
-@pytest.mark.parametrize("precision", ["single", "double"])
-@pytest.mark.parametrize("cid", IDS)
-def test_eval_pdf_match_reference(cid, precision, width, model_cache):
-    """f and pdf against the reference at 2000 random pairs (a quarter grazing, cos down to 1e-3)
-    and 2000 pairs in the specular lobe."""
-    kw = CONFIGS[cid]
-    eps, base, atol = PRECISIONS[precision]
-    rng = np.random.default_rng(zlib.crc32(cid.encode()))
-    wo = rdirs(rng, 4000)
-    wi = np.concatenate([rdirs(rng, 2000), near_lobe(rng, wo[2000:], kw)])
-    m = model_cache(NAME, precision=precision, width=width, **kw)
-    f, p = m.eval(wo, wi), m.pdf(wo, wi)
-    assert np.all(np.isfinite(f)) and np.all(np.isfinite(p))
-    if precision == "single":
-        wi, wo = wi.astype(F32).astype(float), wo.astype(F32).astype(float)
-    rk = rounded(precision, **kw)
-    rt = base + cond(rk, wi, wo, eps)
-    assert_close(f, A.eval(wo, wi, **rk), rt, atol, "eval")
-    assert_close(p, A.pdf(wo, wi, **rk), rt, atol, "pdf")
-
 
 def test_value_at_h_equal_n():
     """At h = n the exponent of eq 16 is 0/0 and (n.h)^e = 1: wi = mirror of wo (h = n exactly)
@@ -127,35 +94,6 @@ def test_value_at_h_equal_n():
             assert abs(f2 / (math.sqrt((nu + 1) * (nv + 1)) / (8 * np.pi) * 0.25) - 1) < 1e-3
 
 
-@pytest.mark.parametrize("width", [1, 16])
-@pytest.mark.parametrize("precision", ["single", "double"])
-@pytest.mark.parametrize("cid", IDS)
-def test_sample_weight_and_pdf(cid, precision, width, model_cache):
-    """weight = f cos_i / pdf and the sample's pdf = pdf(wi), against the reference at the
-    returned wi; weight and pdf 0 exactly for wi below the horizon."""
-    kw = CONFIGS[cid]
-    eps, base, atol = PRECISIONS[precision]
-    rng = np.random.default_rng(11)
-    n = 20000
-    wo = rdirs(rng, n)
-    u = rng.uniform(0, 1, (n, 4))
-    m = model_cache(NAME, precision=precision, width=width, **kw)
-    wi, w, p = m.sample(wo, u)
-    wi, w, p = wi.astype(float), w.astype(float), p.astype(float)
-    if precision == "single":
-        wo = wo.astype(F32).astype(float)
-    rk = rounded(precision, **kw)
-    up = wi[:, 2] > 0
-    assert np.all(w[~up] == 0) and np.all(p[~up] == 0)
-    assert np.all(np.isfinite(w)) and np.all(w >= 0)
-    wi, wo, w, p = wi[up], wo[up], w[up], p[up]
-    rt = 10 * base + 4 * cond(rk, wi, wo, eps)
-    pr = A.pdf(wo, wi, **rk)
-    assert_close(p, pr, rt, atol, "sample pdf")
-    ok = pr > 1e-30
-    assert_close(w[ok], (A.eval(wo, wi, **rk) * wi[:, 2])[ok] / pr[ok], rt[ok], 0, "weight")
-
-
 def test_sampler_is_the_papers_quadrant_map():
     """The kernel's h (read off wi for wo = n, double precision) equals the paper's four-branch
     quadrant construction of eq 19-20 (reference ``sample_h``) at the same (xi1, xi2), to 1e-12,
@@ -171,27 +109,6 @@ def test_sampler_is_the_papers_quadrant_map():
         h /= np.linalg.norm(h, axis=1, keepdims=True)
         hr = A.sample_h(nu, nv, u[:, 0], u[:, 1])
         assert np.max(np.abs(h - hr)) < 1e-12, (nu, nv, np.max(np.abs(h - hr)))
-
-
-def test_rgb_equals_three_single_channel_models(model_cache):
-    """channels=3 (rs, rd, ks, kd, eta per channel) equals three channels=1 models in eval, and
-    in sample weights where there is no mixture (the mixture probability sums channels)."""
-    rng = np.random.default_rng(3)
-    wo, wi = rdirs(rng, 500), rdirs(rng, 500)
-    u = rng.uniform(0, 1, (500, 4))
-    for kw in (dict(nu=30.0, nv=5.0, rs=[0.1, 0.5, 0.9]),
-               dict(nu=30.0, nv=5.0, rs=[0.1, 0.5, 0.9], rd=[0.2, 0.4, 0.6]),
-               dict(nu=50.0, nv=50.0, eta=[1.2, 1.5, 2.5], ks=[0.5, 1.0, 2.0], kd=[0.1, 0.2, 0.3])):
-        m3 = clbrdf.Model(NAME, channels=3, precision="double", **kw)
-        f3 = m3.eval(wo, wi)
-        _, w3, _ = m3.sample(wo, u)
-        assert f3.shape == (500, 3)
-        for ch in range(3):
-            k1 = {k: (v[ch] if isinstance(v, list) else v) for k, v in kw.items()}
-            m1 = model_cache(NAME, precision="double", **k1)
-            np.testing.assert_allclose(f3[:, ch], m1.eval(wo, wi), rtol=1e-13)
-            if "rd" not in kw and "kd" not in kw:
-                np.testing.assert_allclose(w3[:, ch], m1.sample(wo, u)[1], rtol=1e-13)
 
 
 @pytest.mark.parametrize("precision", ["single", "double"])
@@ -229,84 +146,12 @@ def test_no_nan_or_inf_at_extremes(extra, precision, model_cache):
 # ---------------------------------------------------------------------------------------------
 # sampling: normalisation, chi-square, albedo
 
-SAMPLING_CASES = [("iso", 0.5), ("aniso", 0.2), ("sharp", 0.9), ("plastic", 0.05), ("broad", 1.0)]
-N_SAMPLES = 1 << 20
-
 
 def diffuse_prob(kw, mu):
     return float(A.diffuse_prob(S.direction(mu, 0.0), A.configure(**kw)))
 
 
-@pytest.mark.parametrize("cid,mu", SAMPLING_CASES, ids=[f"{c}-mu{m}" for c, m in SAMPLING_CASES])
-def test_pdf_integrates_to_fraction_above_horizon(cid, mu, model_cache):
-    """The kernel's double pdf integrated by adaptive quadrature (the lobe map and, with a diffuse
-    term, the cosine map, by a partition of unity) equals p_d + (1 - p_d) P_above, P_above the
-    probability that eq 19-20 reflect above the horizon by a separate 1-D quadrature over phi_h
-    (to the quadrature errors + 1e-7), and the fraction of 2^20 single-precision samples above the
-    horizon within 4 binomial standard deviations."""
-    kw = CONFIGS[cid]
-    wo = S.direction(mu, 0.4)
-    md = model_cache(NAME, precision="double", **kw)
-    hm = A.HalfMap(wo, kw["nu"], kw["nv"])
-    maps = [(hm.points, hm.density)]
-    pd = diffuse_prob(kw, mu)
-    if pd > 0:
-        maps.append(R.cosine_map())
-    total, qerr = R.hemisphere_integral(lambda wi: md.pdf(wo, wi), maps, 1e-9)
-    above, aerr = A.spec_fraction_above(mu, 0.4, kw["nu"], kw["nv"])
-    expect = pd + (1 - pd) * above
-    assert abs(total - expect) <= qerr + aerr + 1e-7, (total, expect)
-    m = model_cache(NAME, **kw)
-    wi, _, _ = S.draw(m, wo, N_SAMPLES, zlib.crc32(cid.encode()))
-    frac = float(np.mean(wi[:, 2] > 0))
-    sigma = math.sqrt(max(expect * (1 - expect), 1.0 / N_SAMPLES) / N_SAMPLES)
-    assert abs(expect - frac) <= 4 * sigma, (expect, frac, sigma)
-
-
-@pytest.mark.chisquare(n=1)
-@pytest.mark.parametrize("cid,mu", SAMPLING_CASES, ids=[f"{c}-mu{m}" for c, m in SAMPLING_CASES])
-def test_samples_follow_pdf(cid, mu, model_cache, chi2_alpha):
-    """Pearson chi-square of 2^20 single-precision samples against the kernel's double pdf.
-    Bins: tests/stats.py's HalfVectorMap (stretched half-vector slopes, asinh-graded, scale
-    sqrt(2/(n+2)) per axis), 128 x 256 panels by 4 x 4 Gauss-Legendre (a 3 x 3 rule must agree
-    to 0.1 sd per bin), grouped into ~1000 bins of about equal expected count; samples below the
-    horizon are one more bin. Pooling below 5 expected; Sidak-corrected significance."""
-    kw = CONFIGS[cid]
-    wo = S.direction(mu, 0.4)
-    md = model_cache(NAME, precision="double", **kw)
-    hmap = S.HalfVectorMap(wo, math.sqrt(2 / (kw["nu"] + 2)), math.sqrt(2 / (kw["nv"] + 2)))
-
-    def pdf(wi):
-        return md.pdf(wo, wi)
-    m = model_cache(NAME, **kw)
-    wi, _, _ = S.draw(m, wo, N_SAMPLES, zlib.crc32(cid.encode()) + 2)
-    stat, dof, p = S.map_chi2(hmap, pdf, wi, 128, 256, (4, 3), 32, 32)[:3]
-    assert p >= chi2_alpha, f"chi2 {stat:.1f} with {dof} dof, p = {p:.3g} < {chi2_alpha:.3g}"
-
-
-ALBEDO_EST = [("brdf", False), ("brdf", True), ("mis", False)]
 _REF: dict = {}
-
-
-def ref_albedo(kw, mu, phi):
-    key = (repr(sorted(kw.items())), mu, phi)
-    if key not in _REF:
-        _REF[key] = A.albedo(mu, phi, tol=1e-8, **kw)
-    return _REF[key]
-
-
-@pytest.mark.parametrize("estimator,qmc", ALBEDO_EST, ids=[f"{e}-{'qmc' if q else 'mc'}" for e, q in ALBEDO_EST])
-@pytest.mark.parametrize("cid", IDS)
-def test_albedo_matches_reference(cid, estimator, qmc, model_cache):
-    """Monte Carlo albedo (2^18 samples, single precision) at mu = 1, 0.4, 0.05 within 4 standard
-    errors + the reference's error + 2e-6 relative of the reference quadrature."""
-    kw = CONFIGS[cid]
-    m = model_cache(NAME, **kw)
-    mu = np.array([1.0, 0.4, 0.05])
-    r = clbrdf.albedo(m, mu, 0.3, estimator=estimator, qmc=qmc, samples=1 << 18, seed=3)
-    ref = np.array([ref_albedo(rounded("single", **kw), float(x), 0.3) for x in mu])
-    tol = 4 * r.stderr + ref[:, 1] + 2e-6 * ref[:, 0]
-    assert np.all(np.abs(r.albedo - ref[:, 0]) <= tol), (r.albedo, ref[:, 0], r.stderr)
 
 
 # ---------------------------------------------------------------------------------------------

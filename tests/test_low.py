@@ -1,20 +1,17 @@
 """Löw et al. 2012 models: ``low_smooth`` (eq 12-14, two lobes eq 34) and ``low_microfacet``
 (eq 15), their samplers (eq 17-22, eq 23-28), presets, and the stability of the closed forms.
 
-Reference: clbrdf.ref.low (float64, written from the paper). The kernels see float32-rounded
-inputs in single precision, so the reference is evaluated at exactly those inputs; the single-
-precision tolerance is 1e-4 relative plus a conditioning term 16 eps c b r / (1 + b r^2) for the
-rounding of the lobe argument (r = |Dp| or sqrt(1 - n.h)), which can exceed 1e-4 for b >~ 1e6.
+What every model gets (values and densities against the reference, single against double
+precision, RGB, the sampler's chi-square and weights, the albedo) is the conformance battery's
+(tests/test_conformance.py) and clbrdf check's (tests/test_check.py); this file keeps what is
+specific to the paper.
 
-Default run: six configurations (smooth, sharp smooth, two lobes + kd; microfacet, sharp
-microfacet, microfacet + kd) through the battery; ``python tests/test_low.py`` prints the
+``python tests/test_low.py`` prints the
 variance table of docs/models/low.md, ``python tests/test_low.py energy`` the presets' largest
 albedos.
 """
 from __future__ import annotations
 
-import math
-import zlib
 
 import numpy as np
 import pytest
@@ -26,18 +23,6 @@ from clbrdf.ref import microfacet as R
 from clbrdf.ref import low as L
 
 F32 = np.float32
-
-CONFIGS = {
-    "smooth": ("low_smooth", dict(a=2.0, b=50.0, c=0.8, eta=1.5)),
-    "smooth-sharp": ("low_smooth", dict(a=30.0, b=1e4, c=1.5, eta=2.5)),
-    "smooth-two-kd": ("low_smooth", dict(a=3.0, b=300.0, c=0.6, eta=1.3, kd=0.3, a2=0.4, b2=4.0,
-                                         c2=1.2)),
-    "mf": ("low_microfacet", dict(a=2.0, b=50.0, c=0.8, eta=1.5)),
-    "mf-sharp": ("low_microfacet", dict(a=50.0, b=1e5, c=1.0, eta=1.6)),
-    "mf-kd": ("low_microfacet", dict(a=1.0, b=10.0, c=2.0, eta=1.3, kd=0.4)),
-}
-IDS = list(CONFIGS)
-PRECISIONS = {"single": (S.EPS32, 1e-4), "double": (S.EPS64, 1e-10)}
 
 
 def rounded(precision, **kw):
@@ -73,103 +58,11 @@ def near_lobe(rng, wo, b, name):
     return wi / np.linalg.norm(wi, axis=1, keepdims=True)
 
 
-def cond(name, kw, wi, wo, eps):
-    """16 eps c b r / (1 + b r^2) per lobe (see the module docstring); for the microfacet model
-    also 4 eps / (wo.h)^2: the float32 inputs are unit vectors only to eps, and at grazing
-    backscatter (wo.h -> 0) |wi + wo|^2 = 2 + 2 wi.wo cancels, so the kernel's and the
-    reference's equivalent expressions (wi.h vs wo.h, 1/(wo.h)) differ by eps / (wo.h)^2."""
-    if name == "low_smooth":
-        r = np.hypot(wi[..., 0] + wo[..., 0], wi[..., 1] + wo[..., 1])
-        t = 16 * eps * kw["c"] * kw["b"] * r / (1 + kw["b"] * r * r)
-        if "b2" in kw:
-            t = t + 16 * eps * kw["c2"] * kw["b2"] * r / (1 + kw["b2"] * r * r)
-        return t
-    h = L.half(wo, wi)
-    x = (h[..., 0] ** 2 + h[..., 1] ** 2) / (1 + h[..., 2])
-    r = np.sqrt(x)
-    oh = np.sum(wo * h, -1)
-    return (16 * eps * kw["c"] * kw["b"] * r / (1 + kw["b"] * x)
-            + 4 * eps / np.maximum(oh, 1e-6) ** 2)
-
-
 assert_close = S.assert_close
 
 
 # ---------------------------------------------------------------------------------------------
 # values
-
-@pytest.mark.parametrize("width", [1, 16])
-@pytest.mark.parametrize("precision", ["single", "double"])
-@pytest.mark.parametrize("cid", IDS)
-def test_eval_pdf_match_reference(cid, precision, width, model_cache):
-    """f and pdf of the kernel against clbrdf.ref.low at 2000 random pairs (a quarter grazing,
-    cos down to 1e-3) and 2000 pairs in the lobe."""
-    name, kw = CONFIGS[cid]
-    eps, base = PRECISIONS[precision]
-    rng = np.random.default_rng(zlib.crc32(cid.encode()))
-    wo = rdirs(rng, 4000)
-    wi = np.concatenate([rdirs(rng, 2000), near_lobe(rng, wo[2000:], kw["b"], name)])
-    m = model_cache(name, precision=precision, width=width, **kw)
-    f, p = m.eval(wo, wi), m.pdf(wo, wi)
-    if precision == "single":
-        wi, wo = wi.astype(F32).astype(float), wo.astype(F32).astype(float)
-    rk = rounded(precision, **kw)
-    rt = base + cond(name, rk, wi, wo, eps)
-    assert np.all(np.isfinite(f)) and np.all(np.isfinite(p))
-    assert_close(f, L.eval(wo, wi, model=name, **rk), rt, 1e-300, "eval")
-    assert_close(p, L.pdf(wo, wi, model=name, **rk), rt, 1e-300, "pdf")
-
-
-@pytest.mark.parametrize("precision", ["single", "double"])
-@pytest.mark.parametrize("cid", IDS)
-def test_sample_weight_and_pdf(cid, precision, model_cache):
-    """weight = f cos_i / pdf and the sample's pdf = pdf(wi), both against the reference at the
-    returned wi; weight 0 exactly for wi below the horizon."""
-    name, kw = CONFIGS[cid]
-    eps, base = PRECISIONS[precision]
-    rng = np.random.default_rng(11)
-    n = 20000
-    wo = rdirs(rng, n)
-    u = rng.uniform(0, 1, (n, 4))
-    m = model_cache(name, precision=precision, **kw)
-    wi, w, p = m.sample(wo, u)
-    wi, w, p = wi.astype(float), w.astype(float), p.astype(float)
-    if precision == "single":
-        wo = wo.astype(F32).astype(float)
-    rk = rounded(precision, **kw)
-    up = wi[:, 2] > 0
-    assert np.all(w[~up] == 0) and np.all(p[~up] == 0)
-    assert np.all(np.isfinite(w)) and np.all(w >= 0)
-    wi, wo, w, p = wi[up], wo[up], w[up], p[up]
-    wi /= np.linalg.norm(wi, axis=1, keepdims=True)
-    rt = base * 10 + cond(name, rk, wi, wo, eps) * (1 if precision == "double" else 4)
-    pr = L.pdf(wo, wi, model=name, **rk)
-    assert_close(p, pr, rt, 1e-300, "sample pdf")
-    assert_close(w, L.eval(wo, wi, model=name, **rk) * wi[:, 2] / pr, rt, 1e-300, "weight")
-
-
-def test_rgb_equals_three_single_channel_models(model_cache):
-    """channels=3 (a, kd per channel) equals three channels=1 models, for eval; and for sample
-    weights where there is no mixture (the mixture probabilities use channel sums)."""
-    rng = np.random.default_rng(3)
-    wo, wi = rdirs(rng, 500), rdirs(rng, 500)
-    u = rng.uniform(0, 1, (500, 4))
-    for name, kw in [("low_smooth", dict(b=80.0, c=0.9, eta=1.4, kd=[0.1, 0.2, 0.3],
-                                         a2=[0.5, 0.1, 0.2], b2=3.0, c2=1.1)),
-                     ("low_microfacet", dict(b=80.0, c=1.3, eta=1.4, kd=[0.1, 0.2, 0.3])),
-                     ("low_smooth", dict(b=80.0, c=0.9, eta=1.4)),
-                     ("low_microfacet", dict(b=80.0, c=1.3, eta=1.4))]:
-        a = [1.0, 2.0, 3.5]
-        m3 = clbrdf.Model(name, channels=3, precision="double", a=a, **kw)
-        f3 = m3.eval(wo, wi)
-        _, w3, _ = m3.sample(wo, u)
-        assert f3.shape == (500, 3)
-        for ch in range(3):
-            k1 = {k: (v[ch] if isinstance(v, list) else v) for k, v in kw.items()}
-            m1 = model_cache(name, precision="double", a=a[ch], **k1)
-            np.testing.assert_allclose(f3[:, ch], m1.eval(wo, wi), rtol=1e-13)
-            if "kd" not in kw:
-                np.testing.assert_allclose(w3[:, ch], m1.sample(wo, u)[1], rtol=1e-13)
 
 
 EXTREME = dict(b=[1e-6, 1.0, 1e8, 1e9], c=[1e-3, 1 - 1e-7, 1.0, 1 + 1e-7, 50.0],
@@ -216,66 +109,7 @@ def test_no_nan_or_inf_at_extremes(name, extra, precision, model_cache):
 # ---------------------------------------------------------------------------------------------
 # sampling: normalisation, chi-square, albedo
 
-SAMPLING_CASES = [("smooth", 0.5), ("smooth-sharp", 0.05), ("smooth-two-kd", 0.8),
-                  ("mf", 0.5), ("mf-sharp", 0.2), ("mf-kd", 1.0)]
-N_SAMPLES = 1 << 20
 
-
-def lobe_map(name, kw, wo):
-    if name == "low_smooth":
-        return L.DiskMap(wo, kw["b"])
-    return L.HalfMap(wo, L.half_width(kw["b"]))
-
-
-@pytest.mark.parametrize("cid,mu", SAMPLING_CASES, ids=[f"{c}-mu{m}" for c, m in SAMPLING_CASES])
-def test_pdf_integrates_to_fraction_above_horizon(cid, mu, model_cache):
-    """The kernel's double-precision pdf integrated over the upper hemisphere by the reference's
-    adaptive quadrature (each sampled lobe's own map, plus the cosine map with kd, combined by a
-    partition of unity) against the fraction of 2^20 single-precision samples with wi.z > 0:
-    within 4 binomial standard deviations + the quadrature error + 1e-7; and at most 1."""
-    name, kw = CONFIGS[cid]
-    wo = S.direction(mu, 0.4)
-    md = model_cache(name, precision="double", **kw)
-    maps = [lobe_map(name, kw, wo)]
-    if "b2" in kw:
-        maps.append(L.DiskMap(wo, kw["b2"]))
-    maps = [(x.points, x.density) for x in maps]
-    if "kd" in kw:
-        maps.append(R.cosine_map())
-    total, qerr = R.hemisphere_integral(lambda wi: md.pdf(wo, wi), maps, 1e-8)
-    m = model_cache(name, **kw)
-    wi, _, _ = S.draw(m, wo, N_SAMPLES, zlib.crc32(cid.encode()))
-    frac = float(np.mean(wi[:, 2] > 0))
-    sigma = math.sqrt(max(frac * (1 - frac), 1.0 / N_SAMPLES) / N_SAMPLES)
-    assert abs(total - frac) <= 4 * sigma + qerr + 1e-7, (total, frac, sigma)
-    assert total <= 1 + qerr + 1e-7
-    if name == "low_smooth":
-        assert abs(total - 1) <= qerr + 1e-7        # the disk density lives above the horizon
-
-
-@pytest.mark.chisquare(n=1)
-@pytest.mark.parametrize("cid,mu", SAMPLING_CASES, ids=[f"{c}-mu{m}" for c, m in SAMPLING_CASES])
-def test_samples_follow_pdf(cid, mu, model_cache, chi2_alpha):
-    """Pearson chi-square of 2^20 single-precision samples against the kernel's double pdf.
-    Bins: the lobe map's (s, t) square (DiskMap: polar around the mirror point of the Lp disk;
-    HalfMap: polar half-vector slopes), graded by asinh at the lobe's scale, cut into 128 x 256
-    panels integrated by 4 x 4 Gauss-Legendre (a 3 x 3 rule must agree to 0.1 sd per bin), and
-    grouped into ~1000 bins of about equal expected count; samples below the horizon are one
-    more bin. Pooling below 5 expected; Sidak-corrected significance (conftest)."""
-    name, kw = CONFIGS[cid]
-    wo = S.direction(mu, 0.4)
-    md = model_cache(name, precision="double", **kw)
-    hmap = lobe_map(name, kw, wo)
-
-    def pdf(wi):
-        return md.pdf(wo, wi)
-    m = model_cache(name, **kw)
-    wi, _, _ = S.draw(m, wo, N_SAMPLES, zlib.crc32(cid.encode()) + 2)
-    stat, dof, p = S.map_chi2(hmap, pdf, wi, 128, 256, (4, 3), 32, 32)[:3]
-    assert p >= chi2_alpha, f"chi2 {stat:.1f} with {dof} dof, p = {p:.3g} < {chi2_alpha:.3g}"
-
-
-ALBEDO_EST = [("brdf", False), ("brdf", True), ("mis", False)]
 _REF: dict = {}
 
 
@@ -287,20 +121,6 @@ def ref_albedo(name, kw, mu, phi):
         # quadrature and a 1-D integral, which agree to 1e-10)
         _REF[key] = L.albedo(mu, phi, tol=1e-10, model=name, **kw)
     return _REF[key]
-
-
-@pytest.mark.parametrize("estimator,qmc", ALBEDO_EST, ids=[f"{e}-{'qmc' if q else 'mc'}" for e, q in ALBEDO_EST])
-@pytest.mark.parametrize("cid", IDS)
-def test_albedo_matches_reference(cid, estimator, qmc, model_cache):
-    """Monte Carlo albedo (2^18 samples, single precision) at mu = 1, 0.4, 0.05 within 4 standard
-    errors + the reference's error + 2e-6 relative of the reference quadrature."""
-    name, kw = CONFIGS[cid]
-    m = model_cache(name, **kw)
-    mu = np.array([1.0, 0.4, 0.05])
-    r = clbrdf.albedo(m, mu, 0.3, estimator=estimator, qmc=qmc, samples=1 << 18, seed=3)
-    ref = np.array([ref_albedo(name, rounded("single", **kw), float(x), 0.3) for x in mu])
-    tol = 4 * r.stderr + ref[:, 1] + 2e-6 * ref[:, 0]
-    assert np.all(np.abs(r.albedo - ref[:, 0]) <= tol), (r.albedo, ref[:, 0], r.stderr)
 
 
 MIRROR_CASES = {
