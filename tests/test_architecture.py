@@ -10,14 +10,13 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "clbrdf"
 LAYERS = ["version", "models", "ref", "runtime", "api", "tables", "studies", "cli"]
 
 
-def module_name(path: Path) -> str:
-    parts = list(path.relative_to(PACKAGE.parent).with_suffix("").parts)
+def module_name(path: Path, package: Path = PACKAGE) -> str:
+    parts = list(path.relative_to(package.parent).with_suffix("").parts)
     if parts[-1] == "__init__":
         parts.pop()
     return ".".join(parts)
@@ -31,15 +30,14 @@ def layer(mod: str) -> int:
     return LAYERS.index(parts[1])
 
 
-def modules() -> dict:
-    return {module_name(p): p for p in sorted(PACKAGE.rglob("*.py"))}
+def modules(package: Path = PACKAGE) -> dict:
+    return {module_name(p, package): p for p in sorted(package.rglob("*.py"))}
 
 
-def imports(path: Path, mod: str):
+def imports(path: Path, mod: str, known: dict):
     """(imported module, line, inside a function) for every import of a clbrdf module."""
     tree = ast.parse(path.read_text(), str(path))
     package = mod if path.name == "__init__.py" else mod.rpartition(".")[0]
-    known = modules()
     out = []
 
     def visit(node, in_function):
@@ -66,8 +64,9 @@ def imports(path: Path, mod: str):
     return out
 
 
-def graph() -> dict:
-    return {mod: imports(path, mod) for mod, path in modules().items()}
+def graph(package: Path = PACKAGE) -> dict:
+    known = modules(package)
+    return {mod: imports(path, mod, known) for mod, path in known.items()}
 
 
 def test_the_layers_cover_the_package():
@@ -76,20 +75,52 @@ def test_the_layers_cover_the_package():
         layer(mod)
 
 
+def local_imports(g: dict) -> list:
+    return [f"{m}:{line} imports {t}" for m, edges in g.items() for t, line, local in edges
+            if local]
+
+
+def upward_imports(g: dict) -> list:
+    return [f"{m}:{line} imports {t}" for m, edges in g.items() for t, line, _ in edges
+            if layer(t) > layer(m)]
+
+
 def test_no_import_inside_a_function():
-    bad = [f"{m}:{line} imports {t}" for m, edges in graph().items()
-           for t, line, local in edges if local]
+    bad = local_imports(graph())
     assert not bad, "\n".join(bad)
 
 
 def test_imports_go_down_the_layers():
-    bad = [f"{m}:{line} imports {t}" for m, edges in graph().items()
-           for t, line, _ in edges if layer(t) > layer(m)]
+    bad = upward_imports(graph())
     assert not bad, "\n".join(bad)
 
 
 def test_no_import_cycle():
-    g = {m: sorted({t for t, _, _ in edges if t != m}) for m, edges in graph().items()}
+    cycle = find_cycle(graph())
+    assert cycle is None, "import cycle: " + " -> ".join(cycle)
+
+
+def test_the_checks_can_fail(tmp_path):
+    """A package with a cycle (models.a <-> models.b), an upward import (runtime -> cli) and an
+    import inside a function: each check finds its defect."""
+    pkg = tmp_path / "clbrdf"
+    for d in ("models", "runtime", "cli"):
+        (pkg / d).mkdir(parents=True)
+        (pkg / d / "__init__.py").write_text("")
+    (pkg / "__init__.py").write_text("")
+    (pkg / "models" / "a.py").write_text("from . import b\n")
+    (pkg / "models" / "b.py").write_text("from . import a\n")
+    (pkg / "runtime" / "r.py").write_text("from ..cli import c\n\n\ndef f():\n    from ..models import a\n")
+    (pkg / "cli" / "c.py").write_text("")
+    g = graph(pkg)
+    assert find_cycle(g) is not None
+    assert upward_imports(g) == ["clbrdf.runtime.r:1 imports clbrdf.cli.c"]
+    assert local_imports(g) == ["clbrdf.runtime.r:5 imports clbrdf.models.a"]
+
+
+def find_cycle(graph_: dict):
+    """A cycle of the import graph as a list of modules, or None."""
+    g = {m: sorted({t for t, _, _ in edges if t != m}) for m, edges in graph_.items()}
     # importing a module runs its packages' __init__ first: an edge to each of those that is
     # not a package of the importer itself
     for m in list(g):
@@ -104,12 +135,17 @@ def test_no_import_cycle():
         stack.append(m)
         for t in g.get(m, ()):
             if state.get(t) == 1:
-                cycle = stack[stack.index(t):] + [t]
-                pytest.fail("import cycle: " + " -> ".join(cycle))
+                return stack[stack.index(t):] + [t]
             if t not in state:
-                dfs(t)
+                found = dfs(t)
+                if found:
+                    return found
         stack.pop()
         state[m] = 2
+        return None
     for m in sorted(g):
         if m not in state:
-            dfs(m)
+            found = dfs(m)
+            if found:
+                return found
+    return None

@@ -378,3 +378,19 @@ def test_arguments_that_would_be_ignored_are_refused(tmp_path):
                       "--device", "")
     assert r.returncode == 2 and "device='' is empty" in r.stderr, r.stderr
     assert not (tmp_path / "b.zarr").exists() and not (tmp_path / "c.zarr").exists()
+
+
+def test_the_library_takes_a_stop_event_and_leaves_signals_alone(tmp_path):
+    """clbrdf.sweep installs no signal handler (signals are the caller's: the command line turns
+    SIGTERM into an exception); a set ``stop`` event ends the run after the chunks in progress,
+    and the store says how far it got; a second call with resume=True finishes it."""
+    import threading
+    before = signal.getsignal(signal.SIGTERM)
+    stop = threading.Event()
+    stop.set()
+    s = sweep("ggx", tmp_path / "s.zarr", axes={"alpha": [0.1, 0.2, 0.3, 0.4]}, samples=64,
+              chunk=1, stop=stop)
+    assert signal.getsignal(signal.SIGTERM) is before
+    assert len(s.done()) < 4
+    s = sweep(None, tmp_path / "s.zarr", resume=True)
+    assert len(s.done()) == 4 and s.summary()["points"] == 4
