@@ -212,6 +212,7 @@ def test_c_api_as_opencl_c(std):
     assert ulps.max() <= 4, ulps.max()
 
 
+@pytest.mark.slow       # the default run has it with the installed wheel (tests/test_wheel.py)
 @pytest.mark.skipif(not _have("gcc"), reason="gcc not found")
 def test_examples_run_and_agree_with_python():
     """bash examples/run.sh: the C99 and OpenCL albedo programs draw the Python package's samples
