@@ -44,7 +44,8 @@ def test_every_model_has_a_case():
 
 
 @pytest.mark.skipif(not _have("gcc"), reason="gcc not found")
-@pytest.mark.parametrize("precision", ["single", "double"])
+# double precision in the slow tier (each case is a C build and a kernel build)
+@pytest.mark.parametrize("precision", ["single", pytest.param("double", marks=pytest.mark.slow)])
 @pytest.mark.parametrize("case", [c[0] for c in capi.cases()])
 def test_c99_agrees_with_python(case, precision, tmp_path):
     """The C99 build against the package's kernels; and sample() finite at the edges of u in
@@ -82,8 +83,9 @@ def _platforms():
 
 @pytest.mark.skipif(not _have("gcc"), reason="gcc not found")
 @pytest.mark.parametrize("device", _platforms())
-@pytest.mark.parametrize("case", ["ggx-schlick-rgb", "beckmann", "charlie", "gtr",
-                                  "holzschuch_pacanowski", "schlick-aniso"])
+@pytest.mark.parametrize("case", ["ggx-schlick-rgb", "gtr"] + [
+    pytest.param(c, marks=pytest.mark.slow)           # each a build per platform
+    for c in ("beckmann", "charlie", "holzschuch_pacanowski", "schlick-aniso")])
 def test_c_api_on_every_platform(device, case, tmp_path):
     """The C API compiled as OpenCL C in a user's kernel, on every platform present: bit for
     bit the Python package's own kernels at width 1 on the same device (one source), and within
@@ -134,7 +136,8 @@ def test_c_api_clean_under_oclgrind(case, tmp_path, oclgrind_serial):
 @pytest.mark.skipif(not _have("gcc"), reason="gcc not found")
 @pytest.mark.parametrize("compiler, std", [("gcc", "c99"), ("gcc", "c11"), ("g++", "c++17")])
 @pytest.mark.parametrize("precision", ["0", "1"])
-@pytest.mark.parametrize("dist", ["ggx", "beckmann", "gtr", "sgd", "exppow"])
+@pytest.mark.parametrize("dist", ["ggx", "gtr"] + [pytest.param(d, marks=pytest.mark.slow)
+                                                    for d in ("beckmann", "sgd", "exppow")])
 def test_c_api_compiles_warning_free(compiler, std, precision, dist, tmp_path):
     """Every model of the C API in one translation unit (the microfacet one chosen by MF_DIST),
     RGB, with non-default configurations, under -Wall -Wextra -Werror -pedantic."""

@@ -68,12 +68,13 @@ def test_models():
 # eval
 
 @pytest.mark.parametrize("model,params,wi,wo", [
-    ("ggx", {"alpha": 0.3}, (0.0, 0.6, 0.8), (0.0, 0.0, 1.0)),
     ("beckmann", {"alpha": 0.5, "masking": "vcavity", "fresnel": "schlick", "f0": 0.2},
      (0.6, 0.0, 0.8), (-0.36, 0.48, 0.8)),
-    ("ggx", {"alpha_x": 0.2, "alpha_y": 0.6, "eta": 1.8, "k": 2.5}, (0.28, 0.76, 0.586),
-     (0.0, 0.0, 1.0)),
-    ("lambert", {"kd": 0.7}, (0.0, 0.0, 1.0), (0.6, 0.0, 0.8)),
+    # each a process and a kernel build: the others in the slow tier
+    pytest.param("ggx", {"alpha": 0.3}, (0.0, 0.6, 0.8), (0.0, 0.0, 1.0), marks=pytest.mark.slow),
+    pytest.param("ggx", {"alpha_x": 0.2, "alpha_y": 0.6, "eta": 1.8, "k": 2.5},
+                 (0.28, 0.76, 0.586), (0.0, 0.0, 1.0), marks=pytest.mark.slow),
+    pytest.param("lambert", {"kd": 0.7}, (0.0, 0.0, 1.0), (0.6, 0.0, 0.8), marks=pytest.mark.slow),
 ])
 def test_eval_matches_reference(model, params, wi, wo):
     wi = np.array(wi) / np.linalg.norm(wi)
@@ -99,7 +100,8 @@ ALBEDO_KEYS = {"model", "params", "estimator", "samples", "precision", "mu", "al
 
 
 @pytest.mark.parametrize("estimator,extra", [
-    ("brdf", []), ("mis", ["--precision", "double"]), ("cosine", ["--qmc"]), ("uniform", [])])
+    ("mis", ["--precision", "double"]), ("cosine", ["--qmc"]),
+    pytest.param("brdf", [], marks=pytest.mark.slow), pytest.param("uniform", [], marks=pytest.mark.slow)])
 def test_albedo_json_matches_reference(estimator, extra):
     mu = [0.15, 0.5, 1.0]
     r = ok("albedo", "ggx", "--param", "alpha=0.3", "--param", "fresnel=schlick", "--param",

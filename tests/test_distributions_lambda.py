@@ -166,7 +166,9 @@ def references():
 
 
 @pytest.mark.parametrize("masking", ["correlated", pytest.param("separable", marks=pytest.mark.slow)])
-@pytest.mark.parametrize("model,kw", CASES, ids=[cid(m, k) for m, k in CASES])
+@pytest.mark.parametrize("model,kw", [pytest.param(m, k, id=cid(m, k), marks=[] if i in (1, 4) else
+                                                   [pytest.mark.slow])
+                                      for i, (m, k) in enumerate(CASES)])
 def test_albedo_with_masking(model, kw, masking, references, model_cache):
     """BRDF-sampled Monte Carlo albedo (2^21 samples, F = 1) of the kernel with the tabulated
     Lambda, against the reference with quadrature Lambda (see the module docstring)."""

@@ -368,7 +368,8 @@ def test_albedo_no_masking_no_fresnel():
 
 
 @pytest.mark.parametrize("model", DISTS)
-@pytest.mark.parametrize("masking", ["correlated", "separable", "vcavity"])
+@pytest.mark.parametrize("masking", ["correlated", pytest.param("separable", marks=pytest.mark.slow),
+                                     pytest.param("vcavity", marks=pytest.mark.slow)])
 def test_albedo_at_most_one_with_masking(model, masking):
     for a in (0.05, 0.5, 1.0):
         for mu in (0.02, 0.3, 1.0):

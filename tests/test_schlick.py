@@ -132,7 +132,7 @@ def model(model_cache, cfg_kw, **kw):
 # ---------------------------------------------------------------------------------------------
 # values
 
-@pytest.mark.parametrize("width", [1, 16])
+@pytest.mark.parametrize("width", [16, pytest.param(1, marks=pytest.mark.slow)])   # W = 1: extra builds
 @pytest.mark.parametrize("precision", ["single", "double"])
 @pytest.mark.parametrize("cfg", CONFIGS)
 def test_eval_pdf_match_reference(cfg, precision, width, model_cache):
@@ -392,7 +392,8 @@ ALBEDO_CASES = [
 ]
 
 
-@pytest.mark.parametrize("estimator", ["brdf", "mis", "cosine"])
+@pytest.mark.parametrize("estimator", ["brdf"] + [pytest.param(e, marks=pytest.mark.slow)
+                                                   for e in ("mis", "cosine")])
 @pytest.mark.parametrize("label,kw,mus,phi", ALBEDO_CASES, ids=[a[0] for a in ALBEDO_CASES])
 def test_albedo_matches_reference(label, kw, mus, phi, estimator, model_cache):
     """Monte Carlo albedo (2^18 samples, single precision) within 4 stderr + the reference's
