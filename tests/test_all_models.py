@@ -51,8 +51,6 @@ def outputs(name, precision, width):
     return m, wo, f, p, ws, w, ps
 
 
-# 8 is the default width in double precision on a CPU, 16 in single (the per-model tests use it);
-# each (model, precision, width) is a kernel build, so the others run with -m slow
 # "default": the precision's default width on a CPU (16 single, 8 double), whose builds the other
 # tests share; each other (model, precision, width) is a kernel build of its own: slow tier
 DEFAULT_WIDTH = {"single": 16, "double": 8}
