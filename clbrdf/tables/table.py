@@ -109,11 +109,12 @@ class Table:
         if key in self.axis_names:
             return np.asarray(self.axes[self.axis_names.index(key)]["values"], dtype=np.float64)
         groups = self.groups()
-        for suffix, arr in (("", None), ("_stderr", self.stderr), ("_samples", self.samples)):
+        for suffix, arr in (("", None), ("_stderr", self.stderr)):
             g = key[:len(key) - len(suffix)] if suffix and key.endswith(suffix) else key
-            if (suffix == "" or key.endswith(suffix)) and g in groups and \
-                    (suffix != "_samples" or arr is not None):
+            if (suffix == "" or key.endswith(suffix)) and g in groups:
                 return self._channels(self.values if arr is None else np.asarray(arr), groups[g])
+        if key.endswith("_samples") and key[:-8] in groups and self.samples is not None:
+            return np.asarray(self.samples)         # per cell, the same for every channel
         if self.average is not None and key in self.average.keys():
             return self.average[key]
         raise KeyError(f"table {self.name} has no {key!r}: it has {', '.join(self.keys())}")
