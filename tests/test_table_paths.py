@@ -215,3 +215,16 @@ def test_table_as_an_xarray_dataset():
     np.testing.assert_array_equal(ds["E_stderr"].values, t["E_stderr"])
     np.testing.assert_array_equal(ds["E_avg"].sel(channel="G").values, t["E_avg"][..., 1])
     assert json.loads(ds.attrs["clbrdf"])["computed"]["model"] == "ggx"
+
+
+def test_white_furnace_reads_a_plain_table_and_its_average():
+    """clbrdf.albedo_table's Table (E over mu and r, its E_avg attached) serves both
+    compensations of the white furnace, as a layout's tables do."""
+    from clbrdf.studies.furnace import white_furnace
+    t = albedo_table("ggx", {"mu": "0.02:1:16", "r": "0.1:1:10"}, samples=1 << 12, qmc=True)
+    out = white_furnace({"E": t}, r=(0.5, 1.0), mu=(0.5, 1.0), samples=1 << 14)
+    assert "kulla_conty" in out
+    # the table's E and E_avg against the estimates of E_ss: within a few 1e-2 after
+    # compensation (a 16 x 10 table of 2^12 samples)
+    assert np.all(np.abs(out["turquin"] - 1) < 0.03), out["turquin"]
+    assert np.all(np.abs(out["kulla_conty"] - 1) < 0.03), out["kulla_conty"]

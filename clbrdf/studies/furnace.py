@@ -9,6 +9,7 @@ import numpy as np
 from ..api.albedo import albedo
 from ..api.model import Model
 from ..models.spec import ParameterError
+from ..tables.files import flat
 
 
 def _channel(t, label: str, coords: dict):
@@ -66,6 +67,7 @@ def white_furnace(tables: dict, *, r=(0.1, 0.25, 0.5, 0.75, 1.0), mu=(0.05, 0.2,
 
     Both are 1 for a perfect table; what is left is the table's error (interpolation, noise)
     and E_avg's consistency with E. Returns arrays over (r, mu) and the stderr of E_ss."""
+    tables = flat(tables)          # a table's average (E_avg) as a table of its own
     t, read = _find(tables, True)
     if t is None:
         raise ParameterError("white_furnace needs a table with E (a channel E or 1-E, or A and "
