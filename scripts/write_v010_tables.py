@@ -6,7 +6,6 @@
 """
 import sys
 from pathlib import Path
-import numpy as np
 import clbrdf
 from clbrdf import tables as plain
 out = Path(sys.argv[1]); out.mkdir(parents=True, exist_ok=True)

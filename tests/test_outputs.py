@@ -1,6 +1,5 @@
 """Output files: checked before any work, committed together (all old files or all new ones),
 no temporary file left after SIGTERM, stale ones from a killed run removed by the next."""
-import json
 import os
 import signal
 import subprocess

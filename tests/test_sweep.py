@@ -1,7 +1,6 @@
 """Energy-conservation sweeps (clbrdf.sweep, clbrdf sweep, clbrdf report): the values against
 clbrdf.albedo, verdicts against closed forms and their stated error rate, the store's
 bit-identity across chunkings of the work, devices, kills and resumes, and bad input."""
-import importlib
 import json
 import os
 import random
@@ -19,7 +18,7 @@ import clbrdf
 from clbrdf.studies.sweep import open_sweep, sweep
 from cliutil import run_inprocess
 
-from clbrdf.studies import sweep as sw, sweepjob as sj  # noqa: E402
+from clbrdf.studies import sweepjob as sj  # noqa: E402
 
 ARRAYS = ("E", "E_stderr", "samples", "E_max", "E_max_stderr", "E_max_dir", "E_avg",
           "E_avg_stderr", "verdict")

@@ -155,7 +155,6 @@ def test_table_axis_and_fixed_value_conflict():
 
 def test_python_table_metadata_is_complete():
     """One writer of metadata: the Python table records what its bits depend on."""
-    import json
     t = albedo_table("ggx", {"mu": [0.5], "alpha": [0.1, 0.2]}, samples=64,
                      spacing={"alpha": "log"}, width=4)
     meta = t.computed
