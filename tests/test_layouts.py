@@ -529,7 +529,7 @@ def test_header_runs_as_opencl_c(std, small_layouts, tmp_path):
                 (layout, name, np.abs(out - want).max())
 
 
-@pytest.mark.parametrize("suffix", [".npz", ".exr"])
+@pytest.mark.parametrize("suffix", [".npz", ".exr", ".csv"])
 def test_files_round_trip(suffix, small_layouts, tmp_path):
     tables = {**small_layouts["openpbr"], **small_layouts["rgb-preset"]}
     save_tables(tables, tmp_path / f"t{suffix}")

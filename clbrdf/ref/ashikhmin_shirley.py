@@ -23,7 +23,6 @@ albedo), w_s = ks F(n.wo) (the specular albedo of a mirror with this Fresnel fac
 from __future__ import annotations
 
 import numpy as np
-from scipy import integrate
 
 from . import quadrature as R
 
@@ -235,29 +234,6 @@ def albedo(mu, phi=0.0, tol=1e-8, **params):
         value += v
         err += e
     return value, err
-
-
-def spec_fraction_above(mu, phi, nu, nv):
-    """Probability that the specular sampler's wi lies above the horizon, by a 1-D quadrature
-    over the azimuth of h: int P(theta_h < theta_max(phi_h)) p(phi_h) dphi_h, with
-    P = 1 - cos(theta_max)^(e+1) (eq 20) and p(phi) = sqrt((nu+1)(nv+1)) / (2 pi ((nu+1) cos^2 phi
-    + (nv+1) sin^2 phi)) (the marginal of eq 5). Returns (value, abserr)."""
-    wo = R.direction(float(mu), float(phi))
-    so, co, phio = np.hypot(wo[0], wo[1]), wo[2], np.arctan2(wo[1], wo[0])
-
-    def f(ph):
-        e1 = nu * np.cos(ph) ** 2 + nv * np.sin(ph) ** 2 + 1
-        tmax = (np.pi / 2 + np.arctan2(so * np.cos(ph - phio), co)) / 2
-        dens = np.sqrt((nu + 1) * (nv + 1)) / (2 * np.pi * ((nu + 1) * np.cos(ph) ** 2
-                                                              + (nv + 1) * np.sin(ph) ** 2))
-        return -np.expm1(e1 * np.log(np.cos(tmax))) * dens
-    pts = np.linspace(0, 2 * np.pi, 9)
-    tot = err = 0.0
-    for a, b in zip(pts[:-1], pts[1:]):
-        v, e = integrate.quad(f, a, b, epsabs=1e-13, epsrel=1e-12, limit=200)
-        tot += v
-        err += e
-    return tot, err
 
 
 # ---------------------------------------------------------------------------------------------

@@ -96,12 +96,13 @@ def _fmt(x) -> str:
     return repr(float(x))
 
 
-def csv_text(t: Table) -> str:
+def csv_text(t: Table, position: int | None = None) -> str:
     """First line ``# clbrdf-tables/2 {metadata}``, a header, one row per cell: the axes, each
     channel, each channel's stderr, the samples."""
     vals = t.values.reshape(t.shape + (-1,))
     errs = np.asarray(t.stderr, np.float64).reshape(t.shape + (-1,))
-    lines = [f"# {FORMAT} " + json.dumps(_json(t), default=str),
+    head = {**_json(t), **({} if position is None else {"position": position})}
+    lines = [f"# {FORMAT} " + json.dumps(head, default=str),
              ",".join(t.axis_names + t.quantity + [q + "_stderr" for q in t.quantity]
                       + (["samples"] if t.samples is not None else []))]
     axv = [np.asarray(a["values"], np.float64) for a in t.axes]
@@ -115,11 +116,11 @@ def csv_text(t: Table) -> str:
 
 def csv_files(tables: dict, out: Path) -> dict:
     """{path: text}: one table in ``out`` (its average in OUT.avg.csv); several in
-    OUT_STEM.NAME.csv."""
+    OUT_STEM.NAME.csv, which ``load_tables(out)`` reads back in their order."""
     files = {}
-    for name, t in tables.items():
+    for i, (name, t) in enumerate(tables.items()):
         path = out if len(tables) == 1 else out.with_name(f"{out.stem}.{name}.csv")
-        files[path] = csv_text(t)
+        files[path] = csv_text(t, None if len(tables) == 1 else i)      # the order, to read back
         if t.average is not None:
             files[path.with_suffix(".avg.csv")] = csv_text(flat({name: t})[t.average.name])
     return files

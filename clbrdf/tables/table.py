@@ -18,6 +18,7 @@ GPU's bilinear filter with clamp-to-edge), u the position of the coordinate on i
 from __future__ import annotations
 
 import csv
+import glob
 import io
 import json
 from dataclasses import dataclass, field
@@ -381,6 +382,15 @@ def load_tables(path) -> dict:
     if suffix not in readers:
         raise ParameterError(f"path={str(path)!r}: tables load from {', '.join(readers)} "
                              f"(a .h is for C)")
+    if suffix == ".csv" and not path.exists():     # several tables: OUT_STEM.NAME.csv each
+        parts = sorted(q for q in path.parent.glob(f"{glob.escape(path.stem)}.*.csv")
+                       if not q.name.endswith(".avg.csv"))
+        if parts:
+            tables = [t for q in parts for t in load_tables(q).values()]
+            tables.sort(key=lambda t: t.meta.get("position", 0))
+            for t in tables:
+                t.meta.pop("position", None)
+            return {t.name: t for t in tables}
     if not path.is_file():
         raise ParameterError(f"path={str(path)!r} does not exist or is not a file")
     try:
