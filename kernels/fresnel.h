@@ -43,6 +43,19 @@ FN realN fresnel_dielectric(realN eta, realN c)
     return sel(F, (realN)1, g2 < 0);
 }
 
+/* 1 - fresnel_dielectric(eta, c), the transmittance, without the cancellation of 1 - F where F
+ * is near 1 (grazing c, or near the critical angle): with r_s = (c - g)/(c + g) and
+ * r_p = (eta^2 c - g)/(eta^2 c + g) (F = (r_s^2 + r_p^2)/2), 1 - r_s^2 = 4 c g / (c + g)^2 and
+ * 1 - r_p^2 = 4 eta^2 c g / (eta^2 c + g)^2. 0 beyond the critical angle. */
+FN realN fresnel_dielectric_T(realN eta, realN c)
+{
+    realN s2 = (1 - c) * (1 + c);
+    realN g2 = eta2_minus_sin2(eta, c, s2);
+    realN g = safe_sqrt(g2), e2c = eta * eta * c;
+    realN T = 2 * c * g * (1 / sqr(c + g) + eta * eta / sqr(e2c + g));
+    return sel(T, (realN)0, (g2 <= 0) | (c <= 0));
+}
+
 /* Unpolarised conductor with complex index eta + i k (Born & Wolf, real arithmetic form):
  * with a^2 + b^2 = sqrt(t1^2 + 4 eta^2 k^2), a^2 - b^2 = t1 = eta^2 - k^2 - sin^2,
  *   Rs = ((a - c)^2 + b^2) / ((a + c)^2 + b^2),

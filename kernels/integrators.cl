@@ -152,35 +152,52 @@ __kernel void sample_batch(const global real_t *P, Tables TABLES, const global r
 
 /* ---- directional albedo ---- */
 
-/* One estimate of E(wo) = integral f cos dwi (per channel) from the four numbers u. */
+/* One estimate of E(wo) = integral f |cos| dwi (per channel) from the four numbers u, over the
+ * hemisphere of a reflection model, over the sphere for a model that transmits (MODEL_TRANSMITS:
+ * uniform and cosine-weighted directions on both sides). */
+#if BRDF(TRANSMITS)
+#define EST_UNIFORM(u0, u1) square_to_uniform_sphere(u0, u1)
+#define EST_UNIFORM_WEIGHT(w) (fabs((w).z) * (4 * PI_R))      /* |cos| / pdf */
+#define EST_COSINE(u0, u1) square_to_cosine_sphere(u0, u1)
+#define EST_COSINE_PDF(w) cosine_sphere_pdf(w)
+#define EST_COSINE_WEIGHT (2 * PI_R)
+#else
+#define EST_UNIFORM(u0, u1) square_to_uniform_hemisphere(u0, u1)
+#define EST_UNIFORM_WEIGHT(w) (fmax((w).z, (realN)0) * (2 * PI_R))
+#define EST_COSINE(u0, u1) square_to_cosine_hemisphere(u0, u1)
+#define EST_COSINE_PDF(w) cosine_hemisphere_pdf(w)
+#define EST_COSINE_WEIGHT PI_R
+#endif
+
 ALWAYS_INLINE spec albedo_estimate(const Params *p, vec3 wo, rand4 u)
 {
 #if ESTIMATOR == ESTIMATOR_UNIFORM
-    vec3 wi = square_to_uniform_hemisphere(u.u0, u.u1);
-    return spec_scale(BRDF(eval)(p, wo, wi), wi.z * (2 * PI_R));
+    vec3 wi = EST_UNIFORM(u.u0, u.u1);
+    return spec_scale(BRDF(eval)(p, wo, wi), EST_UNIFORM_WEIGHT(wi));
 #elif ESTIMATOR == ESTIMATOR_COSINE
-    vec3 wi = square_to_cosine_hemisphere(u.u0, u.u1);
-    return spec_scale(BRDF(eval)(p, wo, wi), PI_R);
+    vec3 wi = EST_COSINE(u.u0, u.u1);
+    return spec_scale(BRDF(eval)(p, wo, wi), EST_COSINE_WEIGHT);
 #elif ESTIMATOR == ESTIMATOR_BRDF
     return BRDF(sample)(p, wo, u).weight;
 #else
     /* multiple importance sampling, balance heuristic (Veach 1997 section 9.2), one sample of each
-     * technique per estimate: E = f cos / (pdf_b + pdf_c) at the BRDF sample wb (from u0, u1, u2)
+     * technique per estimate: E = f |cos| / (pdf_b + pdf_c) at the BRDF sample wb (from u0, u1, u2)
      * + the same at the cosine sample wc (from u3, u2, or u2, u3 where the sampler uses two
      * numbers). Both are computed anyway; choosing one by u3, as before, added the choice's
      * variance (half of it for the Ashikhmin-Shirley plastic, nearly all for a sharp lobe:
      * docs/models/ashikhmin_shirley.md). A BRDF sample reuses its own
      * weight f cos / pdf_b, computed from its half vector: recomputing f and pdf_b from wi + wo
-     * loses the lobe in single precision at grazing angles. */
+     * loses the lobe in single precision at grazing angles. A delta (pdf_b infinite: a
+     * dielectric at eta = 1) keeps its whole weight. */
     BSample sb = BRDF(sample)(p, wo, u);
-    realN rb = sel((realN)0, 1 / (1 + cosine_hemisphere_pdf(sb.wi) / sb.pdf), sb.pdf > 0);
+    realN rb = sel((realN)0, 1 / (1 + EST_COSINE_PDF(sb.wi) / sb.pdf), sb.pdf > 0);
 #if BRDF(SAMPLE_DIMS) > 2
-    vec3 wc = square_to_cosine_hemisphere(u.u3, u.u2);
+    vec3 wc = EST_COSINE(u.u3, u.u2);
 #else
-    vec3 wc = square_to_cosine_hemisphere(u.u2, u.u3);
+    vec3 wc = EST_COSINE(u.u2, u.u3);
 #endif
-    realN qc = BRDF(pdf)(p, wo, wc) + cosine_hemisphere_pdf(wc);
-    realN rc = sel((realN)0, wc.z / qc, qc > 0);
+    realN qc = BRDF(pdf)(p, wo, wc) + EST_COSINE_PDF(wc);
+    realN rc = sel((realN)0, fabs(wc.z) / qc, qc > 0);   /* wc.z > 0 for a reflection model */
     return spec_add(spec_scale(BRDF(eval)(p, wo, wc), rc), spec_scale(sb.weight, rb));
 #endif
 }
@@ -208,9 +225,9 @@ ALWAYS_INLINE spec probe_weight(const Params *p, vec3 wo, rand4 u)
 #if ESTIMATOR == ESTIMATOR_BRDF
     return sb.weight;
 #elif ESTIMATOR == ESTIMATOR_UNIFORM
-    return spec_scale(BRDF(eval)(p, wo, sb.wi), fmax(sb.wi.z, (realN)0) * (2 * PI_R));
+    return spec_scale(BRDF(eval)(p, wo, sb.wi), EST_UNIFORM_WEIGHT(sb.wi));
 #elif ESTIMATOR == ESTIMATOR_COSINE
-    return spec_scale(BRDF(eval)(p, wo, sb.wi), PI_R);
+    return spec_scale(BRDF(eval)(p, wo, sb.wi), EST_COSINE_WEIGHT);
 #else
     return spec_scale(sb.weight, 2);     /* each balance term is at most f cos / pdf_brdf */
 #endif
@@ -443,7 +460,7 @@ __kernel void quadrature_panels(const global real_t *P, Tables TABLES, const glo
     ulong point = PT[g];
     Params p = splat_params(P, TABLES, npoints, point);
     vec3 wo = v3((realN)WO[point], (realN)WO[npoints + point], (realN)WO[2 * npoints + point]);
-#if BRDF(SAMPLE_DIMS) > 2
+#if BRDF(SAMPLE_DIMS) > 2 && !BRDF(SAMPLE_MEAN)
     realN ends[BRDF(LOBES)];
     BRDF(lobe_ends)(&p, wo, ends);
 #endif
@@ -463,7 +480,9 @@ __kernel void quadrature_panels(const global real_t *P, Tables TABLES, const glo
         realN jj = j0 * j1;
         realN wh = VLOAD(RULE + 2 * nodes + k) * jj, wl = VLOAD(RULE + 3 * nodes + k) * jj,
               wm = VLOAD(RULE + 4 * nodes + k) * jj;
-#if BRDF(SAMPLE_DIMS) > 2
+#if BRDF(SAMPLE_MEAN)
+        spec e = BRDF(sample_mean)(&p, wo, u);
+#elif BRDF(SAMPLE_DIMS) > 2
         spec e;
         for (int ch = 0; ch < CHANNELS; ++ch)
             e.c[ch] = 0;

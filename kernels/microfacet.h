@@ -35,19 +35,12 @@
 
 #include "fresnel.h"
 #include "microfacet_distributions.h"
+#include "microfacet_smith.h"
 
-#define MASKING_NONE 0
-#define MASKING_VCAVITY 1
-#define MASKING_SEPARABLE 2
-#define MASKING_CORRELATED 3
 #define FRESNEL_ONE 0
 #define FRESNEL_SCHLICK 1
 #define FRESNEL_DIELECTRIC 2
 #define FRESNEL_CONDUCTOR 3
-#define SAMPLER_NDF 0
-#define SAMPLER_VNDF 1
-
-#define MF(fn) CAT(MF_DIST, CAT(_, fn))
 #define microfacet_SAMPLE_DIMS (MF_DIFFUSE ? 3 : 2)   /* numbers microfacet_sample uses */
 
 FN Microfacet mf_distribution(const microfacet_params *p)
@@ -82,52 +75,6 @@ FN realN mf_fresnel(const microfacet_params *p, realN c, int ch)
     F *= p->ks[ch];
 #endif
     return F;
-}
-
-/* c / (c + Lambda(w)): G1(w) for c = 1; for c = 1 + Lambda(wo) the correlated G2 / G1(wo).
- * With Lambda = t / d: c d / (c d + t) with one division, written 1 - t / (c d + t) where it is
- * above 1/2 (one rounding near 1, where a sharp lobe's weights lie: c d r rounds three times and
- * near-mirror GGX's single-precision stderr was 1.75x double's; 1 - t r everywhere cancels at
- * grazing: G1 at mu 1e-6 was 1e-3 off). t = 0: 1, also where w underflowed (t = d = 0). */
-FN realN mf_G1c(Microfacet m, vec3 w, realN c)
-{
-#if MF(HAS_LAMBDA_PARTS)
-    realN d, t = MF(Lambda_parts)(m, w, &d);
-    realN cd = c * d, r = 1 / (cd + t);
-    return sel(sel(cd * r, 1 - t * r, t < cd), (realN)1, t == 0);
-#else
-    return c / (c + MF(Lambda)(m, w));
-#endif
-}
-
-FN realN mf_G1(Microfacet m, vec3 w) { return mf_G1c(m, w, (realN)1); }
-
-/* Masking-shadowing G(wo, wi, h) (docs/models/microfacet.md). */
-FN realN mf_G(Microfacet m, vec3 wo, vec3 wi, vec3 h)
-{
-    (void)h; (void)m;   /* the interface's; not every configuration reads it */
-#if MF_MASKING == MASKING_CORRELATED
-    return 1 / (1 + MF(Lambda)(m, wi) + MF(Lambda)(m, wo));
-#elif MF_MASKING == MASKING_SEPARABLE
-    return mf_G1(m, wi) * mf_G1(m, wo);
-#elif MF_MASKING == MASKING_VCAVITY
-    return vcavity_G(wo, wi, h);
-#else
-    return (realN)1;
-#endif
-}
-
-/* G(wo, wi, h) / G1(wo): the visible-normal sampler's weight without Fresnel. */
-FN realN mf_G_over_G1(Microfacet m, vec3 wo, vec3 wi, vec3 h)
-{
-    (void)h; (void)wo;   /* the interface's; not every configuration reads it */
-#if MF_MASKING == MASKING_CORRELATED
-    return mf_G1c(m, wi, 1 + MF(Lambda)(m, wo));
-#elif MF_MASKING == MASKING_SEPARABLE
-    return mf_G1(m, wi);
-#else
-    return mf_G(m, wo, wi, h) * (1 + MF(Lambda)(m, wo));
-#endif
 }
 
 /* Probability of the Lambertian lobe in the sampling mixture. */

@@ -22,6 +22,22 @@ FN vec3 square_to_cosine_hemisphere(realN u0, realN u1)
 }
 FN realN cosine_hemisphere_pdf(vec3 w) { return fmax(w.z, (realN)0) * INV_PI_R; }
 
+/* The whole sphere, for the models that transmit (P_TRANSMITS): uniform (pdf 1 / (4 pi)), and
+ * cosine-weighted on the side u0 picks, the upper for u0 < 1/2 (pdf |cos(theta)| / (2 pi)). */
+FN vec3 square_to_uniform_sphere(realN u0, realN u1)
+{
+    realN z = 1 - 2 * u0;
+    return polar_dir(z, sqrt(4 * u0 * (1 - u0)), u1);
+}
+FN vec3 square_to_cosine_sphere(realN u0, realN u1)
+{
+    maskN lower = u0 >= (realN)0.5;
+    vec3 w = square_to_cosine_hemisphere(sel(2 * u0, 2 * u0 - 1, lower), u1);
+    w.z = sel(w.z, -w.z, lower);
+    return w;
+}
+FN realN cosine_sphere_pdf(vec3 w) { return fabs(w.z) * (realN)(0.5 * INV_PI_R); }
+
 /* Density of a mixture that draws the cosine lobe with probability pd and a lobe of density
  * lobe otherwise (wi above the horizon): the samplers of the models with a diffuse term. */
 FN realN cosine_mixture_pdf(realN pd, vec3 wi, realN lobe)

@@ -70,6 +70,24 @@ WO = np.concatenate([WO, WO])
 WI = np.concatenate([WI, _M / np.linalg.norm(_M, axis=-1, keepdims=True)])
 
 
+# a model that transmits (spec.transmits) is also held on pairs over the whole sphere: the pairs
+# above with either or both directions mirrored below the surface, and near straight-through pairs
+_Z = np.array([1.0, 1.0, -1.0])
+_T = -WO * np.array([0.9, 0.9, 1.0])
+SPHERE_WO = np.concatenate([WO, WO, WO * _Z, WO * _Z, WO, WO * _Z])
+SPHERE_WI = np.concatenate([WI, WI * _Z, WI, WI * _Z, _T / np.linalg.norm(_T, axis=-1, keepdims=True),
+                            -_T / np.linalg.norm(_T, axis=-1, keepdims=True)])
+
+
+def _pairs(m):
+    return (SPHERE_WO, SPHERE_WI) if m.spec.transmits else (WO, WI)
+
+
+def _indices(m, w):
+    """The index of refraction of the side of each direction (1 above, eta below)."""
+    return np.where(w[:, 2] > 0, 1.0, float(m.params["eta"]))
+
+
 def _tol(name):
     return TABULATED.get(name, 1e-9)
 
@@ -94,10 +112,18 @@ def test_kernel_matches_reference(name, cid, kw):
     m = _model(name, kw)
     ref = reference(m)
     tol = _tol(name)
-    _close(m.eval(WO, WI), ref.eval(WO, WI), tol, "eval")
-    _close(m.pdf(WO, WI), ref.pdf(WO, WI), tol, "pdf")
+    wo, wi = _pairs(m)
+    _close(m.eval(wo, wi), ref.eval(wo, wi), tol, "eval")
+    _close(m.pdf(wo, wi), ref.pdf(wo, wi), tol, "pdf")
     if ref.reciprocal:
-        _close(m.eval(WI, WO), m.eval(WO, WI), 1e-10, "reciprocity")
+        _close(m.eval(wi, wo), m.eval(wo, wi), 1e-10, "reciprocity")
+    if m.spec.transmits:
+        # generalised reciprocity (Veach 1997 eq 5.14): radiance f(wo, wi) / n_o^2 =
+        # f(wi, wo) / n_i^2; importance (energy) f(wo, wi) / n_i^2 = f(wi, wo) / n_o^2
+        no, ni = _indices(m, wo), _indices(m, wi)
+        a, b = (no, ni) if m.options["transport"] == "radiance" else (ni, no)
+        f, g = (np.reshape(m.eval(*d), (len(wo), -1)) for d in ((wo, wi), (wi, wo)))
+        _close(f / a[:, None] ** 2, g / b[:, None] ** 2, 1e-10, "generalised reciprocity")
 
 
 @tiered(FAST, ALBEDO_CASES)
@@ -171,8 +197,9 @@ def test_single_precision_matches_double(name, cid, kw):
     cos theta >= 0.02. The 1e-30 scales with ks (f is linear in it)."""
     s = clbrdf.Model(name, **kw)
     d = clbrdf.Model(name, precision="double", **kw)
-    wo = WO.astype(np.float32).astype(float)
-    wi = WI.astype(np.float32).astype(float)
+    wo, wi = _pairs(d)
+    wo = wo.astype(np.float32).astype(float)
+    wi = wi.astype(np.float32).astype(float)
     eps = float(np.finfo(np.float32).eps)
     for what in ("eval", "pdf"):
         fs = np.asarray(getattr(s, what)(wo, wi), float)

@@ -74,11 +74,12 @@ def _as_model(m) -> Model:
 def albedo(m: Model | str, mu, phi=0.0, *, estimator: str = "brdf", samples: int = 1 << 16,
            seed: int = 0, qmc: bool = False, tol: float | None = None,
            max_evals: int | None = None, progress: bool = False) -> AlbedoResult:
-    """Directional albedo E(wo) = integral f(wo, wi) cos(theta_i) dwi of a Model (or a model's
-    name: its defaults).
+    """Directional albedo E(wo) = integral f(wo, wi) |cos(theta_i)| dwi of a Model (or a model's
+    name: its defaults), over the hemisphere, or the sphere for a model that transmits.
 
-    ``mu`` = cos(theta_o) and ``phi`` (azimuth of wo) broadcast with the model's parameters.
-    ``estimator``: ``uniform`` / ``cosine`` hemisphere sampling, ``brdf`` importance sampling,
+    ``mu`` = cos(theta_o) and ``phi`` (azimuth of wo) broadcast with the model's parameters;
+    mu < 0 (wo below the surface) for a model that transmits.
+    ``estimator``: ``uniform`` / ``cosine`` hemisphere (sphere) sampling, ``brdf`` importance sampling,
     ``mis`` (balance heuristic, one brdf and one cosine sample per estimate), all by Monte Carlo
     with ``samples`` per point; or ``quadrature``: deterministic adaptive Gauss-Legendre panels in
     the sampler's own unit square until the error estimate is at most ``tol`` (default 1e-6
@@ -109,7 +110,10 @@ def albedo(m: Model | str, mu, phi=0.0, *, estimator: str = "brdf", samples: int
         if tol is not None or max_evals is not None:
             raise ParameterError(f"tol and max_evals are for estimator='quadrature', not "
                                  f"{estimator!r}")
-    mu = check_mu(mu, m.precision)
+    mu = check_mu(mu, m.precision, below=m.spec.transmits)
+    if estimator in ("uniform", "cosine") and np.any(m.spec.deltas(m.config, m.params)):
+        raise ParameterError(f"estimator={estimator!r} cannot see the delta lobe of "
+                             f"{m.spec.deltas_text}: choose brdf, mis or quadrature")
     phi = np.asarray(phi, dtype=np.float64)
     finite_or_raise("phi", phi)
     shape = m.points_shape(np.zeros(np.broadcast_shapes(mu.shape, phi.shape) + (3,)))

@@ -78,7 +78,8 @@ class Model(Bound):
     # ---- public API ----
     def eval(self, wo, wi) -> np.ndarray:
         """BRDF value f(wo, wi) in 1/sr (shape (..., 3) for an RGB model); 0 where either
-        direction is below the horizon."""
+        direction is below the horizon, unless the model transmits (``spec.transmits``: a BSDF
+        over the whole sphere)."""
         wo = check_directions("wo", wo, allow_below=True)
         wi = check_directions("wi", wi, allow_below=True)
         shape = self.points_shape(wo, wi)
@@ -97,8 +98,9 @@ class Model(Bound):
     def sample(self, wo, u=None, *, seed: int = 0, qmc: bool = False):
         """Importance-sample wi given wo. ``u``: uniform numbers of shape (..., 4); if omitted they
         are drawn from the library's generator keyed by (seed, index). Returns (wi, weight, pdf),
-        weight = f cos(theta_i) / pdf (0 for a sample below the horizon; (..., 3) for RGB)."""
-        wo = check_directions("wo", wo)
+        weight = f |cos(theta_i)| / pdf (0 for a sample below the horizon of a BRDF; (..., 3) for
+        RGB). A model that transmits takes wo on either side and returns wi on either side."""
+        wo = check_directions("wo", wo, allow_below=self.spec.transmits)
         shape = self.points_shape(wo) if u is None else self.points_shape(wo, np.asarray(u)[..., :3])
         if u is None:
             u = self.random(math.prod(shape), seed=seed, qmc=qmc).reshape(shape + (4,))

@@ -128,6 +128,15 @@ class ModelSpec:
     # full name of a module elsewhere (a model registered from outside the package)
     ref: str = ""
     facts: Facts = field(default_factory=Facts)
+    # directions on the whole sphere (a BSDF that transmits; its header defines P_TRANSMITS 1):
+    # wo may be below the surface (mu < 0) and wi on either side; False: a BRDF, which rejects
+    # a wo below the horizon and is 0 for a wi below it
+    transmits: bool = False
+    # (defines, parameter values) -> where f has a delta lobe (a bool array; None: nowhere),
+    # which only the sampler finds: the uniform and cosine estimators are refused there;
+    # deltas_text says where, for the error
+    deltas_fn: Callable | None = None
+    deltas_text: str = ""
 
     def anisotropic(self, cfg: "Config", values: dict) -> bool:
         return bool(self.anisotropic_fn and self.anisotropic_fn(dict(cfg.defines), values))
@@ -135,6 +144,10 @@ class ModelSpec:
     def mu_kinks(self, cfg: "Config", values: dict):
         return (self.mu_kinks_fn(dict(cfg.defines), values, cfg.channels) if self.mu_kinks_fn
                 else None)
+
+    def deltas(self, cfg: "Config", values: dict):
+        return (np.asarray(self.deltas_fn(dict(cfg.defines), values), bool) if self.deltas_fn
+                else np.zeros((), bool))
 
     def param(self, name: str) -> Param:
         for p in self.params:
@@ -234,14 +247,19 @@ def check_directions(name: str, w: np.ndarray, tol: float = 1e-4, allow_below: b
 MU_MIN = {"single": 1e-6, "double": 1e-12}
 
 
-def check_mu(mu, precision: str = "double") -> np.ndarray:
+def check_mu(mu, precision: str = "double", below: bool = False) -> np.ndarray:
+    """mu = cos(theta_o) in [MU_MIN, 1]; with ``below`` (a model that transmits) also in
+    [-1, -MU_MIN], a wo below the surface."""
     mu = np.asarray(mu, dtype=np.float64)
     lo = MU_MIN[precision]
-    bad = ~np.isfinite(mu) | (mu < lo) | (mu > 1)
+    a = np.abs(mu) if below else mu
+    bad = ~np.isfinite(mu) | (a < lo) | (a > 1)
     if np.any(bad):
         v = mu.reshape(-1)[np.argmax(bad.reshape(-1))]
+        valid = (f"[-1, -{lo:g}] or [{lo:g}, 1] (wo above or below the surface)" if below
+                 else f"[{lo:g}, 1] (a direction above the horizon)")
         raise ParameterError(f"mu={float(v)!r} is out of range: valid mu = cos(theta_o) is in "
-                             f"[{lo:g}, 1] in {precision} precision (a direction above the horizon)")
+                             f"{valid} in {precision} precision")
     return mu
 
 

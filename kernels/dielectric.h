@@ -1,0 +1,251 @@
+/* Rough dielectric interface: microfacet reflection and refraction (Walter et al. 2007, "Microfacet
+ * models for refraction through rough surfaces", eqs 13-21), directions on the whole sphere.
+ *
+ * | parameter        | meaning                                                | range        |
+ * |------------------|--------------------------------------------------------|--------------|
+ * | alpha            | roughness (isotropic)                                  | [1e-4, 10]   |
+ * | alpha_x, alpha_y | roughness along x and y (anisotropic)                  | [1e-4, 10]   |
+ * | eta              | index of the side below (z < 0) relative to the side above | [0.01, 100] |
+ *
+ * In the frame where wo is above (z of both directions negated when wo.z < 0, and eta -> 1/eta:
+ * eta is then the index of wi's side relative to wo's when wi is below), with F the exact
+ * dielectric Fresnel at wo.h (1 beyond the critical angle):
+ *   reflection (wi.z > 0), h = normalize(wo + wi):
+ *     f = F D G / (4 |cos_i| cos_o)                                          (eq 20)
+ *   refraction (wi.z < 0), h = +-normalize(wo + eta wi) with h.z > 0, wo.h > 0 > wi.h:
+ *     f = (1 - F) D G |wi.h| wo.h / (|cos_i| cos_o (wi.h + wo.h / eta)^2)   (eq 21 times eta^2)
+ *         and the same / eta^2 with DI_TRANSPORT_RADIANCE (eq 21: radiance, Walter's BTDF).
+ * The first form (importance, energy) integrates to the energy that crosses the interface
+ * (what renderers' glass tables hold, e.g. Cycles' ggx_glass_E); the radiance form keeps the
+ * 1/eta^2 by which radiance changes across it. Generalised reciprocity: radiance
+ * f(wo, wi) / n_o^2 = f(wi, wo) / n_i^2, importance f(wo, wi) / n_i^2 = f(wi, wo) / n_o^2 (n_o, n_i
+ * the indices of the sides of wo and wi).
+ * G: MF_MASKING correlated 1 / (1 + Lambda(wo) + Lambda(wi)) for both branches, as Cycles and
+ * pbrt-v4; separable G1(wo) G1(wi), as Walter 2007 and Mitsuba 3 (microfacet_smith.h).
+ * eta = 1 exactly is no interface: no reflection, and transmission is the delta wi = -wo with
+ * weight 1 (eval and pdf 0, the sampler's pdf infinite), as Cycles treats |eta - 1| < 1e-4.
+ *
+ * Compile-time configuration:
+ *   MF_DIST       ggx | beckmann (microfacet_distributions.h)
+ *   MF_ANISO      0: alpha; 1: alpha_x, alpha_y
+ *   MF_MASKING    MASKING_CORRELATED | MASKING_SEPARABLE
+ *   MF_SAMPLER    SAMPLER_VNDF | SAMPLER_NDF
+ *   DI_LOBES      DI_BOTH | DI_REFLECTION | DI_TRANSMISSION: the terms f has (E_R + E_T, E_R, E_T)
+ *   DI_TRANSPORT  DI_IMPORTANCE | DI_RADIANCE
+ *
+ * Sampling: h from the (visible) normals of wo, then reflection with probability F(wo.h) and
+ * refraction otherwise (DI_BOTH; one branch only otherwise), so that the weight is G / G1(wo)
+ * (VNDF) for either branch. pdf: reflection P_r D_vis(h) / (4 wo.h); refraction
+ * P_t D_vis(h) |wi.h| / (wi.h + wo.h / eta)^2 (Walter eq 17), D_vis = G1(wo) D(h) wo.h / cos_o,
+ * or D(h) h.z for the NDF sampler.
+ */
+#ifndef CLBRDF_DIELECTRIC_H
+#define CLBRDF_DIELECTRIC_H
+
+#include "fresnel.h"
+#include "microfacet_distributions.h"
+#include "microfacet_smith.h"
+
+#define DI_BOTH 3
+#define DI_REFLECTION 1
+#define DI_TRANSMISSION 2
+#define DI_IMPORTANCE 0
+#define DI_RADIANCE 1
+
+#define dielectric_SAMPLE_DIMS (DI_LOBES == DI_BOTH ? 3 : 2)
+#define dielectric_TRANSMITS 1       /* directions on both sides (integrators.cl) */
+#define dielectric_SAMPLE_MEAN 1     /* dielectric_sample_mean: the weight averaged over u2 */
+
+FN Microfacet di_distribution(const dielectric_params *p)
+{
+#if MF_ANISO
+    Microfacet m = MICROFACET(p->alpha_x, p->alpha_y, (realN)0, p);
+#else
+    Microfacet m = MICROFACET(p->alpha, p->alpha, (realN)0, p);
+#endif
+    return m;
+}
+
+/* The frame where wo is above: *s = -1 where wo.z < 0 (the z of both directions negated), 1
+ * elsewhere; returns the relative index of the side opposite wo. */
+FN realN di_frame(const dielectric_params *p, vec3 *wo, vec3 *wi, realN *s)
+{
+    maskN below = wo->z < 0;
+    *s = sel((realN)1, (realN)-1, below);
+    wo->z *= *s;
+    wi->z *= *s;
+    return sel(p->eta, 1 / p->eta, below);
+}
+
+/* The probabilities of the reflection and refraction branches where the Fresnel reflectance is F
+ * and the transmittance T = 1 - F (each computed without cancellation). */
+FN void di_branch_probs(realN F, realN T, realN *pr, realN *pt)
+{
+    (void)F; (void)T;
+#if DI_LOBES == DI_BOTH
+    *pr = F;
+    *pt = T;
+#elif DI_LOBES == DI_REFLECTION
+    *pr = (realN)1;
+    *pt = (realN)0;
+#else
+    *pr = (realN)0;
+    *pt = (realN)1;
+#endif
+}
+
+/* The fraction of F (reflection) and 1 - F (refraction) that f keeps. */
+#define DI_KEEPS_R (DI_LOBES != DI_TRANSMISSION)
+#define DI_KEEPS_T (DI_LOBES != DI_REFLECTION)
+
+/* The radiance form's factor on refraction, 1 / eta^2 (eta: wi's side relative to wo's). */
+FN realN di_transport(realN eta)
+{
+#if DI_TRANSPORT == DI_RADIANCE
+    return 1 / (eta * eta);
+#else
+    (void)eta;
+    return (realN)1;
+#endif
+}
+
+/* Density of the normals the sampler draws, per unit solid angle of h, at wo.h = oh > 0. */
+FN realN di_normal_pdf(Microfacet m, vec3 wo, vec3 h, realN oh)
+{
+#if MF_SAMPLER == SAMPLER_VNDF
+    return mf_G1(m, wo) * MF(D)(m, h) * oh / wo.z;
+#else
+    (void)wo; (void)oh;
+    return MF(D)(m, h) * h.z;
+#endif
+}
+
+/* f and pdf in the frame where wo is above (wo.z > 0); eta of wi's side when below. The
+ * generalised half vector h = (wo + e wi) / |wo + e wi| (e = 1 for reflection, eta for
+ * refraction), turned to h.z > 0: with L = |wo + e wi|, (wi.h + wo.h / eta)^2 = L^2 / eta^2,
+ * which needs no difference of nearly equal cosines where eta is near 1. */
+FN realN di_eval_pdf(const dielectric_params *p, vec3 wo, vec3 wi, realN eta, realN *pdf)
+{
+    Microfacet m = di_distribution(p);
+    maskN refl = wi.z > 0;
+    realN e = sel(eta, (realN)1, refl);
+    vec3 hv = add3(wo, scale3(wi, e));
+    realN L = sqrt(dot3(hv, hv));
+    vec3 h = scale3(hv, sel((realN)1, (realN)-1, hv.z < 0) / L);
+    realN oh = sel(dot3(wo, h), (realN)0.5 * L, refl);        /* half_cos for reflection */
+    realN ih = dot3(wi, h);
+    /* a refracted pair's T from the side where the relative index exceeds 1: from the other
+     * side F(c) has an infinite slope at the critical angle, where transmission from a dense
+     * medium (eta 0.01) lives (the wo side gave 4e-9 relative, wi's 2e-16) */
+    maskN flip = (eta < 1) & !refl;
+    realN F = fresnel_dielectric(eta, oh);
+    realN T = fresnel_dielectric_T(sel(eta, 1 / eta, flip), sel(oh, -ih, flip));
+    realN D = MF(D)(m, h);
+    realN G = mf_G(m, wo, wi, h);
+    realN ci = fabs(wi.z), co = wo.z;
+    realN jac_t = fabs(ih) * eta * eta / (L * L);             /* |wi.h| / (wi.h + wo.h/eta)^2 */
+    realN fr = (DI_KEEPS_R ? F : (realN)0) * D * G / (4 * ci * co);
+    realN ft = (DI_KEEPS_T ? T : (realN)0) * D * G * oh * jac_t / (ci * co) * di_transport(eta);
+    realN pr, pt;
+    di_branch_probs(F, T, &pr, &pt);
+    realN ph = di_normal_pdf(m, wo, h, oh);
+    realN pd = sel(pt * ph * jac_t, pr * ph / (4 * oh), refl);
+    maskN ok = (co > 0) & (wi.z != 0) & (oh > 0) & (sel(ih < 0, ih > 0, refl))
+               & (L > 0) & (h.z > 0) & (refl | (eta != 1));
+    *pdf = sel((realN)0, pd, ok);
+    return sel((realN)0, sel(ft, fr, refl), ok);
+}
+
+ALWAYS_INLINE spec dielectric_eval(const dielectric_params *p, vec3 wo, vec3 wi)
+{
+    realN s, pdf, eta = di_frame(p, &wo, &wi, &s);
+    return spec_splat(di_eval_pdf(p, wo, wi, eta, &pdf));
+}
+
+ALWAYS_INLINE realN dielectric_pdf(const dielectric_params *p, vec3 wo, vec3 wi)
+{
+    realN s, pdf, eta = di_frame(p, &wo, &wi, &s);
+    di_eval_pdf(p, wo, wi, eta, &pdf);
+    return pdf;
+}
+
+/* Both branches of the sampler at the normal drawn from (u0, u1), in the frame where wo is
+ * above: the reflected and the refracted direction with their weights f |cos_i| / pdf (the
+ * branch's share of F or 1 - F over its probability; 0 where the branch is impossible) and
+ * densities, and the probabilities *pr, *pt = 1 - *pr of the branches. Refraction: wi = -wo / eta +
+ * k h with k = wo.h / eta - cos_t = (1 - eta^2) / (eta (wo.h + eta cos_t)) (no cancellation near
+ * eta = 1), and (wi.h + wo.h / eta)^2 = k^2. */
+FN void di_branches(const dielectric_params *p, vec3 wo, realN eta, rand4 u, BSample *r, BSample *t,
+                    realN *pr, realN *pt)
+{
+    Microfacet m = di_distribution(p);
+#if MF_SAMPLER == SAMPLER_VNDF
+    vec3 h = normalize3(MF(sample_vndf)(m, wo, u.u0, u.u1));
+#else
+    vec3 h = MF(sample_ndf)(m, u.u0, u.u1);
+#endif
+    realN c = dot3(wo, h);
+    realN s2 = (1 - c) * (1 + c);
+    realN g2 = eta2_minus_sin2(eta, c, s2);          /* eta^2 cos_t^2 */
+    realN g = safe_sqrt(g2);
+    realN F = fresnel_dielectric(eta, c), T = fresnel_dielectric_T(eta, c);
+    di_branch_probs(F, T, pr, pt);
+    realN k = (1 - eta) * (1 + eta) / (eta * (c + g));
+    r->wi = reflect3(wo, h);
+    t->wi = sub3(scale3(h, k), scale3(wo, 1 / eta));
+    realN ph = di_normal_pdf(m, wo, h, c);
+    realN jac_t = g / (eta * k * k);                /* |wi.h| / (wi.h + wo.h/eta)^2 */
+    r->pdf = *pr * ph / (4 * c);
+    t->pdf = *pt * ph * jac_t;
+#if MF_SAMPLER == SAMPLER_VNDF
+    realN gr = mf_G_over_G1(m, wo, r->wi, h), gt = mf_G_over_G1(m, wo, t->wi, h);
+#else
+    realN q = c / (wo.z * h.z);                     /* f |cos_i| / pdf = (.) G wo.h / (cos_o h.z) */
+    realN gr = mf_G(m, wo, r->wi, h) * q, gt = mf_G(m, wo, t->wi, h) * q;
+#endif
+    /* the branch's share of the Fresnel split over its probability: 1 for DI_BOTH */
+    realN wr = (DI_KEEPS_R ? F : (realN)0) / *pr, wt = (DI_KEEPS_T ? T : (realN)0) / *pt;
+    realN one = (realN)1;
+    r->weight = spec_splat(gr * (DI_LOBES == DI_BOTH ? one : wr));
+    t->weight = spec_splat(gt * (DI_LOBES == DI_BOTH ? one : wt) * di_transport(eta));
+    maskN up = (wo.z > 0) & (c > 0);
+    /* eta = 1: no interface, the delta wi = -wo of weight 1 */
+    maskN none = eta == 1;
+    t->wi = select3(t->wi, scale3(wo, (realN)-1), none);
+    t->weight = spec_sel(t->weight, spec_splat((realN)(DI_KEEPS_T ? 1 : 0)), none);
+    t->pdf = sel(t->pdf, (realN)INFINITY, none);
+    *r = bsample_where(*r, up & (r->wi.z > 0) & (*pr > 0));
+    *t = bsample_where(*t, (up | none) & (t->wi.z < 0) & (g2 > 0) & (*pt > 0));
+}
+
+ALWAYS_INLINE BSample dielectric_sample(const dielectric_params *p, vec3 wo, rand4 u)
+{
+    realN s;
+    vec3 wi = wo;
+    realN eta = di_frame(p, &wo, &wi, &s);
+    BSample r, t;
+    realN pr, pt;
+    di_branches(p, wo, eta, u, &r, &t, &pr, &pt);
+    maskN refl = u.u2 < pr;
+    BSample b;
+    b.wi = select3(t.wi, r.wi, refl);
+    b.weight = spec_sel(t.weight, r.weight, refl);
+    b.pdf = sel(t.pdf, r.pdf, refl);
+    b.wi.z *= s;
+    return b;
+}
+
+/* The sampler's weight averaged over u2 (which picks the branch) at (u0, u1): the integrand of
+ * the deterministic quadrature (integrators.cl), whose panels then see both branches. */
+FN spec dielectric_sample_mean(const dielectric_params *p, vec3 wo, rand4 u)
+{
+    realN s;
+    vec3 wi = wo;
+    realN eta = di_frame(p, &wo, &wi, &s);
+    BSample r, t;
+    realN pr, pt;
+    di_branches(p, wo, eta, u, &r, &t, &pr, &pt);
+    return spec_add(spec_scale(r.weight, pr), spec_scale(t.weight, pt));
+}
+
+#endif
