@@ -316,6 +316,70 @@ FN real_t clbrdf_charlie_pdf(const clbrdf_charlie_params *p, vec3 wo, vec3 wi) {
 /* wi, weight = f cos(theta_i) / pdf per channel, and pdf; u: the first charlie_SAMPLE_DIMS numbers are used */
 FN BSample clbrdf_charlie_sample(const clbrdf_charlie_params *p, vec3 wo, rand4 u) { return charlie_sample(p, wo, u); }
 
+/* ---- ggx_dielectric (Rough dielectric (reflection and refraction), GGX distribution), beckmann_dielectric (Rough dielectric (reflection and refraction), Beckmann distribution): kernels/dielectric.h ---- */
+#ifndef MF_ANISO
+#define MF_ANISO 0
+#endif
+#ifndef MF_MASKING
+#define MF_MASKING MASKING_CORRELATED
+#endif
+#ifndef MF_SAMPLER
+#define MF_SAMPLER SAMPLER_VNDF
+#endif
+#ifndef DI_LOBES
+#define DI_LOBES DI_BOTH
+#endif
+#ifndef DI_TRANSPORT
+#define DI_TRANSPORT DI_IMPORTANCE
+#endif
+typedef struct {
+    real_t alpha;             /* roughness (isotropic), [0.0001, 10], default 0.5 */
+    real_t alpha_x;           /* roughness along the tangent x (anisotropic), [0.0001, 10], default 0.5 */
+    real_t alpha_y;           /* roughness along the bitangent y (anisotropic), [0.0001, 10], default 0.5 */
+    real_t eta;               /* index of refraction below the surface relative to above (1/eta seen from below), [0.01, 100], default 1.5 */
+} clbrdf_dielectric_params;
+#define dielectric_params clbrdf_dielectric_params
+
+#include "dielectric.h"
+
+#if CAT(CLBRDF_MF_, MF_DIST) == CLBRDF_MF_ggx
+typedef clbrdf_dielectric_params clbrdf_ggx_dielectric_params;
+FN clbrdf_dielectric_params clbrdf_ggx_dielectric_defaults(void)
+{
+    clbrdf_dielectric_params p;
+    p.alpha = (real_t)0.5;
+    p.alpha_x = (real_t)0.5;
+    p.alpha_y = (real_t)0.5;
+    p.eta = (real_t)1.5;
+    return p;
+}
+/* f(wo, wi) per channel (1/sr), without the cosine */
+FN spec clbrdf_ggx_dielectric_eval(const clbrdf_dielectric_params *p, vec3 wo, vec3 wi) { return dielectric_eval(p, wo, wi); }
+/* density (1/sr) of wi under clbrdf_ggx_dielectric_sample, given wo */
+FN real_t clbrdf_ggx_dielectric_pdf(const clbrdf_dielectric_params *p, vec3 wo, vec3 wi) { return dielectric_pdf(p, wo, wi); }
+/* wi, weight = f cos(theta_i) / pdf per channel, and pdf; u: the first dielectric_SAMPLE_DIMS numbers are used */
+FN BSample clbrdf_ggx_dielectric_sample(const clbrdf_dielectric_params *p, vec3 wo, rand4 u) { return dielectric_sample(p, wo, u); }
+#endif
+
+#if CAT(CLBRDF_MF_, MF_DIST) == CLBRDF_MF_beckmann
+typedef clbrdf_dielectric_params clbrdf_beckmann_dielectric_params;
+FN clbrdf_dielectric_params clbrdf_beckmann_dielectric_defaults(void)
+{
+    clbrdf_dielectric_params p;
+    p.alpha = (real_t)0.5;
+    p.alpha_x = (real_t)0.5;
+    p.alpha_y = (real_t)0.5;
+    p.eta = (real_t)1.5;
+    return p;
+}
+/* f(wo, wi) per channel (1/sr), without the cosine */
+FN spec clbrdf_beckmann_dielectric_eval(const clbrdf_dielectric_params *p, vec3 wo, vec3 wi) { return dielectric_eval(p, wo, wi); }
+/* density (1/sr) of wi under clbrdf_beckmann_dielectric_sample, given wo */
+FN real_t clbrdf_beckmann_dielectric_pdf(const clbrdf_dielectric_params *p, vec3 wo, vec3 wi) { return dielectric_pdf(p, wo, wi); }
+/* wi, weight = f cos(theta_i) / pdf per channel, and pdf; u: the first dielectric_SAMPLE_DIMS numbers are used */
+FN BSample clbrdf_beckmann_dielectric_sample(const clbrdf_dielectric_params *p, vec3 wo, rand4 u) { return dielectric_sample(p, wo, u); }
+#endif
+
 /* ---- holzschuch_pacanowski (Holzschuch & Pacanowski 2015: diffuse + diffraction + exponential-power reflection): kernels/holzschuch_pacanowski.h ---- */
 #ifndef HP_ENERGY
 #define HP_ENERGY 0

@@ -130,16 +130,18 @@ def generate() -> str:
         else:
             cfg, _ = spec0.configure(channels=1)
             for k, v in cfg.defines:
-                out += _ifndef(k, v)
+                if k != "MF_DIST":          # a family on the microfacet distributions: one per
+                    out += _ifndef(k, v)    # translation unit, as MF_DIST picks it
         out += ["typedef struct {"] + [_field(p) for p in params]
         if tables:
             out.append("    Tables tables;            /* the generated tables (clbrdf_tables.h) */")
         out += [f"}} {struct};", f"#define {prefix}_params {struct}", "",
                 f'#include "{spec0.header}"', ""]
         for n, s in members:
-            guard = prefix == "microfacet"
+            dist = dict(s.configure(channels=1)[0].defines).get("MF_DIST")
+            guard = dist is not None
             if guard:
-                out.append(f"#if CAT(CLBRDF_MF_, MF_DIST) == CLBRDF_MF_{n}")
+                out.append(f"#if CAT(CLBRDF_MF_, MF_DIST) == CLBRDF_MF_{dist}")
             if prefix != n:
                 out.append(f"typedef {struct} clbrdf_{n}_params;")
             out += _defaults_fn(n, struct, params, s, tables)

@@ -64,6 +64,17 @@ def critical_mu(defines: dict, values: dict, channels: int):
     return mu[..., None]
 
 
+def energy_bound(defines: dict, values: dict, mu):
+    """Energy conservation, E_R + E_T (n_i / n_o)^2 <= 1 in radiance form: E <= max(1, (n_o /
+    n_i)^2), n_o and n_i the indices of wo's and of the refracted direction's sides."""
+    mu = np.asarray(mu, float)
+    if defines["DI_TRANSPORT"] != "DI_RADIANCE":
+        return np.ones(mu.shape)
+    eta = np.asarray(values["eta"], float)
+    rel = np.where(mu > 0, eta, 1 / eta)            # n_i / n_o
+    return np.maximum(1.0, 1 / rel ** 2)
+
+
 def spec(dist: str, title: str, reference: str, facts: Facts) -> ModelSpec:
     return ModelSpec(
         name=f"{dist}_dielectric", title=title, reference=reference, header="dielectric.h",
@@ -71,7 +82,7 @@ def spec(dist: str, title: str, reference: str, facts: Facts) -> ModelSpec:
         notes="alpha_x and alpha_y (instead of alpha) make it anisotropic; eta = 1 is no "
               "interface (all light passes straight through)",
         anisotropic_fn=lambda d, v: d.get("MF_ANISO") == "1", mu_kinks_fn=critical_mu,
-        ref="dielectric", transmits=True, facts=facts,
+        ref="dielectric", transmits=True, facts=facts, energy_bound_fn=energy_bound,
         deltas_fn=lambda d, v: (np.asarray(v["eta"]) == 1) & (d["DI_LOBES"] != "DI_REFLECTION"),
         deltas_text="eta = 1 (no interface: the light passes straight through)")
 

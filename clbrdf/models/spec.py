@@ -137,6 +137,10 @@ class ModelSpec:
     # deltas_text says where, for the error
     deltas_fn: Callable | None = None
     deltas_text: str = ""
+    # (defines, parameter values, mu) -> the most E(mu) may be without creating energy (an array
+    # broadcast with mu); None: 1. A BSDF in radiance form exceeds 1 where it refracts into a
+    # rarer medium (radiance grows by the squared ratio of the indices)
+    energy_bound_fn: Callable | None = None
 
     def anisotropic(self, cfg: "Config", values: dict) -> bool:
         return bool(self.anisotropic_fn and self.anisotropic_fn(dict(cfg.defines), values))
@@ -144,6 +148,10 @@ class ModelSpec:
     def mu_kinks(self, cfg: "Config", values: dict):
         return (self.mu_kinks_fn(dict(cfg.defines), values, cfg.channels) if self.mu_kinks_fn
                 else None)
+
+    def energy_bound(self, cfg: "Config", values: dict, mu):
+        return (np.asarray(self.energy_bound_fn(dict(cfg.defines), values, mu), float)
+                if self.energy_bound_fn else np.ones(np.shape(mu)))
 
     def deltas(self, cfg: "Config", values: dict):
         return (np.asarray(self.deltas_fn(dict(cfg.defines), values), bool) if self.deltas_fn

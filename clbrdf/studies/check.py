@@ -124,15 +124,34 @@ def _where(wo=None, wi=None, ch=None):
     return " ".join(parts)
 
 
+MIRROR_Z = np.array([1.0, 1.0, -1.0])
+
+
+def _sides(m):
+    """The sides of the surface a sampled wi can lie on: +1 above, and -1 below for a model that
+    transmits (spec.transmits)."""
+    return (1, -1) if m.spec.transmits else (1,)
+
+
+def _both(m, d):
+    """Directions d (above), and their mirror images below for a model that transmits."""
+    return np.concatenate([d, d * MIRROR_Z]) if m.spec.transmits else d
+
+
 def _pairs(m):
-    """Direction pairs (wi, wo): every grid direction against every other, plus mirror pairs."""
+    """Direction pairs (wi, wo): every grid direction against every other, plus mirror pairs
+    (and straight-through pairs for a model that transmits)."""
     mus, phis = _mus(m.precision), _phis(m)
     M, P = np.meshgrid(mus, np.concatenate([phis, phis + np.pi]), indexing="ij")
-    d = _dir(M.ravel(), P.ravel())
+    d = _both(m, _dir(M.ravel(), P.ravel()))
     wi = np.repeat(d, len(d), 0)
     wo = np.tile(d, (len(d), 1))
     mirror = d * np.array([-1.0, -1.0, 1.0])
-    return np.concatenate([wi, mirror]), np.concatenate([wo, d])
+    extra_wi, extra_wo = [mirror], [d]
+    if m.spec.transmits:
+        extra_wi.append(-d)
+        extra_wo.append(d)
+    return np.concatenate([wi] + extra_wi), np.concatenate([wo] + extra_wo)
 
 
 def _values(m, seed):
@@ -142,7 +161,7 @@ def _values(m, seed):
     p = np.asarray(m.pdf(wo, wi), float)
     mus, phis = _mus(m.precision), _phis(m)
     M, P = np.meshgrid(mus, phis, indexing="ij")
-    wos = _dir(M.ravel(), P.ravel())
+    wos = _both(m, _dir(M.ravel(), P.ravel()))
     n = 4096
     wo_s = np.repeat(wos, n, 0)
     swi, sw, sp = m.sample(wo_s, seed=seed)
@@ -189,16 +208,22 @@ def check_weight(m, v, perturbations: int = 4) -> Check:
     and of each component by one ulp, not), widened by its own width and by the relative
     tolerance; samples where that value moves by more than itself within one rounding are not
     judged, and counted."""
-    up = (v["swi"][:, 2] > 0) & (v["sp"] > 0)
-    wi, wo, w = v["swi"][up], v["wo_s"][up], _rowwise(v["sw"][up])
+    # samples above the horizon (either side for a model that transmits); a delta (an infinite
+    # pdf: a dielectric at eta = 1) has no f or pdf to compare with
+    z = v["swi"][:, 2]
+    up = ((z != 0) if m.spec.transmits else (z > 0)) & (v["sp"] > 0) & np.isfinite(v["sp"])
+    wi, wo = v["swi"][up], v["wo_s"][up]
     if not len(wi):
+        if m.spec.transmits and np.all(np.isinf(v["sp"][v["sp"] > 0])):
+            return Check("weight = f cos / pdf", True, 0.0, "a delta only: nothing to compare")
         return Check("weight = f cos / pdf", False, 1.0, "samples above the horizon", "none")
+    w = _rowwise(v["sw"][up])
     ref = _double_twin(m)
 
     def ratio(a, b):
         f = _rowwise(np.asarray(ref.eval(b, a), float))
         pe = np.asarray(ref.pdf(b, a), float)
-        return f * a[:, 2:3] / np.where(pe > 0, pe, np.inf)[:, None]
+        return f * np.abs(a[:, 2:3]) / np.where(pe > 0, pe, np.inf)[:, None]
     want = ratio(wi, wo)
     lo, hi = want.copy(), want.copy()
     rng = np.random.default_rng(12345)
@@ -220,7 +245,7 @@ def check_weight(m, v, perturbations: int = 4) -> Check:
     for _ in range(perturbations):
         for move in (renormalised, ulp_steps):
             pi_, po = move(wi), move(wo)
-            ok = (pi_[:, 2] > 0) & (po[:, 2] > 0)
+            ok = (pi_[:, 2] * wi[:, 2] > 0) & (po[:, 2] * wo[:, 2] > 0)     # on their sides
             r = np.where(ok[:, None], ratio(np.where(ok[:, None], pi_, wi),
                                             np.where(ok[:, None], po, wo)), want)
             lo, hi = np.minimum(lo, r), np.maximum(hi, r)
@@ -256,11 +281,9 @@ def _double_twin(m):
                    channels=m.channels, **m.options, **m.params)
 
 
-def _lobe_scale(m, wo, seed):
-    """Stretch (ax, ay) of the half-vector map from a pilot sample (not the tested one):
-    median |slope| of h = normalize(wi + wo) along x and y, within [1e-4, 1]."""
-    wi, _, _ = m.sample(np.broadcast_to(wo, (4096, 3)), seed=seed + 7919)
-    wi = np.asarray(wi, float)
+def _lobe_scale(wo, wi):
+    """Stretch (ax, ay) of the half-vector map of wo from pilot samples wi (not the tested
+    ones): median |slope| of h = normalize(wi + wo) along x and y, within [1e-4, 1]."""
     wi = wi[wi[:, 2] > 0]
     if len(wi) < 16:
         return 1.0, 1.0
@@ -271,16 +294,36 @@ def _lobe_scale(m, wo, seed):
     return float(np.clip(2 * sx, 1e-4, 1.0)), float(np.clip(2 * sy, 1e-4, 1.0))
 
 
-def chi2_at(m, wo, n, seed, max_levels=3):
-    """Chi-square of n samples at wo against the pdf, panels refined (x2 each way, up to
-    ``max_levels`` times) until the two quadrature orders agree to 0.1 sd in every bin."""
-    ax, ay = _lobe_scale(m, wo, seed)
-    hmap = S.HalfVectorMap(wo, ax, ay)
-    wi, _, _ = m.sample(np.broadcast_to(wo, (n, 3)), seed=seed)
-    wi = np.asarray(wi, float)
+def _side_map(m, wo, side, seed):
+    """The chi-square's map of one side of the surface, seen mirrored into the upper hemisphere
+    (side -1: wi below, z negated): the half-vector map of wo (mirrored with the side) where wo
+    reflects onto that side; elsewhere (the refracted lobe of a model that transmits) of the
+    direction whose mirror image is the pilot samples' mean direction."""
+    pilot, _, _ = m.sample(np.broadcast_to(wo, (4096, 3)), seed=seed + 7919)
+    pilot = np.asarray(pilot, float) * np.array([1.0, 1.0, side])
+    wo_map = wo * np.array([1.0, 1.0, side])
+    if wo_map[2] <= 0:
+        c = pilot[pilot[:, 2] > 0].sum(0)
+        c = c / np.linalg.norm(c) if np.linalg.norm(c) > 0 else np.array([0.0, 0.0, 1.0])
+        wo_map = np.array([-c[0], -c[1], max(c[2], 1e-6)])
+        wo_map /= np.linalg.norm(wo_map)
+    return S.HalfVectorMap(wo_map, *_lobe_scale(wo_map, pilot))
+
+
+def chi2_at(m, wo, n, seed, max_levels=3, side=1):
+    """Chi-square of n samples at wo against the pdf on one side of the surface (the upper
+    hemisphere, or the lower one mirrored: side -1), panels refined (x2 each way, up to
+    ``max_levels`` times) until the two quadrature orders agree to 0.1 sd in every bin. The
+    samples on the other side fall in the chi-square's below-the-horizon bin."""
+    hmap = _side_map(m, wo, side, seed)
+    flip = np.array([1.0, 1.0, side])
+    wi, _, pdf_s = m.sample(np.broadcast_to(wo, (n, 3)), seed=seed)
+    wi = np.asarray(wi, float) * flip
+    if m.spec.transmits:        # a rejected sample (pdf 0) may point to either side: neither
+        wi[~(np.asarray(pdf_s) > 0), 2] = -1.0
 
     def pdf(w):
-        return np.asarray(m.pdf(np.broadcast_to(wo, w.shape), w), float)
+        return np.asarray(m.pdf(np.broadcast_to(wo, w.shape), w * flip), float)
     ns, nt = 64, 128
     for level in range(max_levels + 1):
         r = S.map_chi2(hmap, pdf, wi, ns=ns, nt=nt, max_qerr=None)
@@ -290,14 +333,14 @@ def chi2_at(m, wo, n, seed, max_levels=3):
 
 
 def check_chi2(m, samples, seed, out_dir=None):
-    wos = _chi2_directions(m)
-    k = len(wos)
+    cases = [(wo, side) for wo in _chi2_directions(m) for side in _sides(m)]
+    k = len(cases)
     level = S.sidak(ALPHA, k)
     results = []
-    for j, wo in enumerate(wos):
+    for j, (wo, side) in enumerate(cases):
         try:
             # up to 1024 x 2048 panels: Ward alpha_y = 1e-3 at a grazing off-axis wo needs them
-            r, panels, hmap = chi2_at(m, wo, samples, seed + j, max_levels=4)
+            r, panels, hmap = chi2_at(m, wo, samples, seed + j, max_levels=4, side=side)
         except ValueError as e:          # the pdf is not finite or negative somewhere
             bad = Check("chi-square", False, float("nan"), "a finite, non-negative pdf",
                         f"{e} at {_where(wo)}")
@@ -311,7 +354,8 @@ def check_chi2(m, samples, seed, out_dir=None):
     worst = f"p = {pmin:.3g} at {_where(wo)} ({r.dof} dof, stat {r.stat:.4g}, panels {panels})"
     if conv >= 0.1:
         worst += f"; expected counts not converged ({conv:.3g} sd)"
-    chk = Check("chi-square", passed, pmin, f"p >= {level:.3g} (Sidak, {k} directions, "
+    chk = Check("chi-square", passed, pmin, f"p >= {level:.3g} (Sidak, {k} "
+                f"{'directions' if len(_sides(m)) == 1 else 'directions and sides'}, "
                 f"family {ALPHA:g})", worst)
     if not passed and out_dir is not None:
         chk.details["files"] = _chi2_plots(r, panels, wo, out_dir, m)
@@ -363,7 +407,7 @@ def _chi2_plots(r, panels, wo, out_dir, m):
     return [str(png), str(csv)]
 
 
-def quadrature_albedo(m, wo, hmap, panels):
+def quadrature_albedo(m, wo, hmap, panels, side=1):
     """E(wo) per channel by integrating eval(wo, wi) cos(theta_i) over the panels of hmap
     (Gauss-Legendre of order 4 per panel on 2 ns x 2 nt panels): a deterministic value that does
     not use the sampler; its error is taken as the change from ns x nt panels plus the change
@@ -374,7 +418,8 @@ def quadrature_albedo(m, wo, hmap, panels):
     ref = _double_twin(m)
     for c in range(m.channels):
         def f(w, c=c):
-            v = np.asarray(ref.eval(np.broadcast_to(wo, w.shape), w), float)
+            v = np.asarray(ref.eval(np.broadcast_to(wo, w.shape), w * np.array([1, 1, side])),
+                           float)
             return (v if m.channels == 1 else v[..., c]) * w[..., 2]
         hi = S.panel_integrals(hmap, f, 2 * ns, 2 * nt, 4).sum()
         lo = S.panel_integrals(hmap, f, ns, nt, 4).sum()
@@ -389,8 +434,10 @@ def check_albedo(m, samples, seed):
     zs, worst_z, worst = 0, 0.0, ""
     for j, wo in enumerate(wos):
         try:
-            _, panels, hmap = chi2_at(m, wo, 1 << 12, seed + 100 + j, max_levels=3)
-            q = quadrature_albedo(m, wo, hmap, panels)
+            q = 0
+            for side in _sides(m):           # a model that transmits: both sides' integrals
+                _, panels, hmap = chi2_at(m, wo, 1 << 12, seed + 100 + j, max_levels=3, side=side)
+                q = q + quadrature_albedo(m, wo, hmap, panels, side)
         except ValueError as e:
             return Check("albedo vs quadrature", False, float("nan"), "a finite pdf and eval",
                          f"{e} at {_where(wo)}")
@@ -421,7 +468,8 @@ def check_albedo(m, samples, seed):
 
 def _chi2_directions(m):
     wos = [_dir(np.array(mu), np.array(phi)) for mu in (0.05, 0.5, 1.0) for phi in _phis(m)[:2]]
-    return [w for i, w in enumerate(wos) if not (w[2] == 1.0 and i % 2)]
+    wos = [w for i, w in enumerate(wos) if not (w[2] == 1.0 and i % 2)]
+    return list(_both(m, np.array(wos)))
 
 
 def check_stderr(m, seed, samples, runs=64):
@@ -459,6 +507,8 @@ def check_stderr(m, seed, samples, runs=64):
 
 def check_energy(m, samples, seed):
     mus, phis = _mus(m.precision), _phis(m)
+    if m.spec.transmits:                  # wo on both sides
+        mus = np.concatenate([mus, -mus])
     MU, PHI = np.meshgrid(mus, phis, indexing="ij")
     r = albedo(m, MU, PHI, estimator="mis", samples=samples, seed=seed)
     e, s = r.albedo, np.sqrt(r.sampling_stderr ** 2 + _floor(m, r.albedo) ** 2)
@@ -468,10 +518,14 @@ def check_energy(m, samples, seed):
     # (ln(1000) E / N) and raise it by at most their share of W (r.unseen); the lower bound
     # needs the first, the upper the second
     lo_all = e - z * s - _resolution(e, r.samples)
-    i = np.unravel_index(int(np.argmax(lo_all)), e.shape)
+    # the most E may be (1; a BSDF in radiance form: more where it refracts into a rarer medium)
+    bound = m.spec.energy_bound(m.config, m.params, MU)
+    bound = bound[..., None] if e.ndim > bound.ndim else bound
+    i = np.unravel_index(int(np.argmax(lo_all - bound)), e.shape)
     lower, upper = lo_all[i], e[i] + z * s[i] + r.unseen[i]
     ch = i[2] if len(i) > 2 else None
-    return Check("energy", lower <= 1, float(e[i]), "lower confidence bound of max E <= 1",
+    text = "1" if np.all(bound == 1) else "the model's bound"
+    return Check("energy", lower <= bound[i], float(e[i]), f"lower confidence bound of max E <= {text}",
                  f"E = {e[i]:.6g} [{lower:.6g}, {upper:.6g}] at mu={MU[i[:2]]:.3g} "
                  f"phi={PHI[i[:2]]:.3g}" + (f" channel {ch}" if ch is not None else ""))
 
