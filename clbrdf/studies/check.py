@@ -175,9 +175,11 @@ def _rowwise(a):
 
 def check_finite(m, v) -> Check:
     bad_total, worst = 0, ""
+    # a model's declared delta (spec.deltas: a dielectric at eta = 1) samples with pdf +inf
+    sp = np.where(np.isposinf(v["sp"]) & np.any(m.spec.deltas(m.config, m.params)), 1.0, v["sp"])
     for name, arr, wi, wo in (("eval", v["f"], v["wi"], v["wo"]), ("pdf", v["p"], v["wi"], v["wo"]),
                               ("sample weight", v["sw"], v["swi"], v["wo_s"]),
-                              ("sample pdf", v["sp"], v["swi"], v["wo_s"]),
+                              ("sample pdf", sp, v["swi"], v["wo_s"]),
                               ("sample direction", v["swi"], v["swi"], v["wo_s"])):
         bad = ~np.all(np.isfinite(_rowwise(arr)), axis=1)
         if bad.any() and not worst:
@@ -319,8 +321,9 @@ def chi2_at(m, wo, n, seed, max_levels=3, side=1):
     flip = np.array([1.0, 1.0, side])
     wi, _, pdf_s = m.sample(np.broadcast_to(wo, (n, 3)), seed=seed)
     wi = np.asarray(wi, float) * flip
-    if m.spec.transmits:        # a rejected sample (pdf 0) may point to either side: neither
-        wi[~(np.asarray(pdf_s) > 0), 2] = -1.0
+    if m.spec.transmits:        # a rejected sample (pdf 0) may point to either side, and a
+        # delta's (pdf inf) has no density: neither side's
+        wi[~((np.asarray(pdf_s) > 0) & np.isfinite(pdf_s)), 2] = -1.0
 
     def pdf(w):
         return np.asarray(m.pdf(np.broadcast_to(wo, w.shape), w * flip), float)
@@ -428,6 +431,17 @@ def quadrature_albedo(m, wo, hmap, panels, side=1):
     return np.array(out)
 
 
+def _delta_albedo(m, wo, seed, n=1 << 16):
+    """(E, err) per channel of the model's declared delta lobe (spec.deltas), which eval does not
+    hold: the mean of the weights of the samples with an infinite pdf, and its standard error;
+    0 without deltas."""
+    if not np.any(m.spec.deltas(m.config, m.params)):
+        return np.zeros((m.channels, 2))
+    _, w, p = m.sample(np.broadcast_to(wo, (n, 3)), seed=seed)
+    w = _rowwise(np.asarray(w, float)) * np.isinf(np.asarray(p))[:, None]
+    return np.stack([w.mean(0), w.std(0) / math.sqrt(n)], -1)
+
+
 def check_albedo(m, samples, seed):
     """brdf and mis estimates against the sampler-free quadrature of eval (quadrature_albedo)."""
     wos = _chi2_directions(m) + [_dir(np.array(MU_MIN[m.precision] * 100), np.array(0.0))]
@@ -438,6 +452,7 @@ def check_albedo(m, samples, seed):
             for side in _sides(m):           # a model that transmits: both sides' integrals
                 _, panels, hmap = chi2_at(m, wo, 1 << 12, seed + 100 + j, max_levels=3, side=side)
                 q = q + quadrature_albedo(m, wo, hmap, panels, side)
+            q = q + _delta_albedo(m, wo, seed + 200 + j)
         except ValueError as e:
             return Check("albedo vs quadrature", False, float("nan"), "a finite pdf and eval",
                          f"{e} at {_where(wo)}")
