@@ -21,7 +21,8 @@ import pytest
 from scipy import stats as sps
 
 import clbrdf
-from clbrdf.tables.layouts import compute_table, get_layout, layout_table, layouts, make_layout
+from clbrdf.tables.layouts import (compute_table, get_layout, layout_table, layouts,
+                                   make_layout, table_config)
 from clbrdf.studies.stats import sidak
 from clbrdf.tables.files import save_tables
 from clbrdf.tables.table import Table, load_tables
@@ -30,6 +31,7 @@ from cliutil import run_inprocess
 DATA = Path(__file__).parent / "data" / "renderers"
 EPS32 = float(np.finfo(np.float32).eps)
 N = 1 << 20
+REFLECTION = ("table_ggx_E", "table_ggx_Eavg")    # Cycles' GGX tables (the glass ones: below)
 
 
 def z_bound(cells):
@@ -44,7 +46,7 @@ def rows(name):
 
 @pytest.fixture(scope="module")
 def cycles():
-    return make_layout("cycles", samples=N)
+    return make_layout("cycles", samples=N, only=REFLECTION)
 
 
 def test_cycles_matches_its_shipped_table(cycles):
@@ -73,6 +75,121 @@ def test_cycles_matches_its_shipped_table(cycles):
     sigma_a = ta.stderr * np.sqrt(1 + N / 2 ** 26)
     assert np.all(np.abs(da) <= z_bound(da.size) * sigma_a + 5e-7 + 8 * EPS32 + 3 / N), \
         da / sigma_a
+
+
+NG = 1 << 16      # samples per cell of the glass tables here (Cycles: 2^23, 2^26 per average)
+
+
+@pytest.fixture(scope="module")
+def cycles_glass():
+    """Cycles' four glass tables of the layout (ggx_dielectric), without the interpolation
+    check (test_cycles_matches_its_shipped_table covers it for the layout's machinery)."""
+    lay = get_layout("cycles")
+    out = {}
+    for tab in lay["tables"]:
+        if "glass" in tab["name"]:
+            model, fixed = table_config(lay, tab)
+            out[tab["name"]] = compute_table(model, tab["name"], tab["quantity"], tab["axes"],
+                                             fixed=fixed, value_range=tab.get("range"),
+                                             samples=NG, check_interpolation=False)
+    return out
+
+
+def _cycles_glass(name):
+    rows_ = [r.split(",") for r in rows(name)]
+    cols = list(zip(*rows_))[-2:]
+    shape = (16, 16, 16) if len(rows_) == 4096 else (16, 16)
+    return [np.array([float(x) for x in c]).reshape(shape) for c in cols]
+
+
+def _glass_bad(t, ref, published):
+    """Cells off by more than the combined standard error (ours and Cycles' published sample
+    count) times the Sidak bound, plus the allowance of test_cycles_matches_its_shipped_table;
+    and the differences."""
+    d = t.values - ref
+    sigma = t.stderr * np.sqrt(1 + NG / published)
+    return np.abs(d) > z_bound(d.size) * sigma + 5e-7 + 8 * EPS32 + 3 / NG, d
+
+
+def test_cycles_glass_entering_matches_its_shipped_tables(cycles_glass):
+    """ggx_glass_E and ggx_glass_Eavg (ior > 1, wo outside) cell for cell within the combined
+    standard error, but for r = 0 at mu = 0 with ior > 1: Cycles' r = 0 is a mirror (alpha
+    1e-8, a delta: E = F + (1 - F) = 1), clbrdf's GGX alpha 1e-4, which masks at mu = 1e-4 (E
+    0.89 to 0.99); the ior = 1 slice (z = 0) is no interface in both, E = 1."""
+    E, _ = _cycles_glass("cycles_ggx_glass_E.csv")
+    A, _ = _cycles_glass("cycles_ggx_glass_Eavg.csv")
+    bad, d = _glass_bad(cycles_glass["table_ggx_glass_E"], E, 2 ** 23)
+    assert np.argwhere(bad).tolist() == [[k, 0, 0] for k in range(1, 16)], np.argwhere(bad)
+    assert np.all(d[1:, 0, 0] < 0) and np.all(cycles_glass["table_ggx_glass_E"].values[0] == 1)
+    bad_a, _ = _glass_bad(cycles_glass["table_ggx_glass_Eavg"], A, 2 ** 26)
+    assert not bad_a.any(), np.argwhere(bad_a)
+
+
+def _cycles_2023_glass(eta, mu, alpha, keep_wrong_side, n=1 << 20, seed=5):
+    """E of GGX glass at wo = (sqrt(1 - mu^2), 0, mu) by the estimator of Cycles'
+    cycles_precompute.cpp, re-implemented in NumPy (float64): visible normals (Heitz 2018),
+    reflection with probability F (exact Fresnel; total internal reflection: 1), weight
+    (1 + L_o) / (1 + L_o + L_i). A reflected direction below the surface is rejected; a
+    refracted one above it is rejected too unless ``keep_wrong_side``, as the sampler of
+    blender/cycles 34125e1d0 (2023, where the glass tables were generated) had that test
+    commented out (`// valid = valid && (dot(Ng, *wo) < 0);`). Returns (E, stderr)."""
+    rng = np.random.default_rng(seed)
+    wo = np.array([np.sqrt(1 - mu * mu), 0.0, mu])
+    u = rng.random((n, 3))
+
+    def lam(w):
+        return (-1 + np.sqrt(1 + alpha ** 2 * (w[..., 0] ** 2 + w[..., 1] ** 2) / w[..., 2] ** 2)) / 2
+    v = np.array([alpha * wo[0], alpha * wo[1], wo[2]])
+    v /= np.linalg.norm(v)
+    z = (1 - u[:, 1]) * (1 + v[2]) - v[2]
+    s = np.sqrt(np.clip(1 - z * z, 0, 1))
+    c = np.stack([s * np.cos(2 * np.pi * u[:, 0]), s * np.sin(2 * np.pi * u[:, 0]), z], -1) + v
+    h = np.stack([alpha * c[:, 0], alpha * c[:, 1], np.maximum(c[:, 2], 0)], -1)
+    h /= np.linalg.norm(h, axis=1, keepdims=True)
+    ch = h @ wo
+    arg = 1 - (1 - ch * ch) / eta ** 2
+    g = np.sqrt(np.maximum(eta ** 2 - 1 + ch * ch, 0))
+    F = np.where(arg < 0, 1.0, 0.5 * ((g - ch) / (g + ch)) ** 2
+                 * (1 + ((ch * (g + ch) - 1) / (ch * (g - ch) + 1)) ** 2))
+    refr = (u[:, 2] >= F) & (arg >= 0)
+    wr = 2 * ch[:, None] * h - wo
+    wt = -wo / eta + (ch / eta - np.sqrt(np.maximum(arg, 0)))[:, None] * h
+    wi = np.where(refr[:, None], wt, wr)
+    w = (1 + lam(wo)) / (1 + lam(wo) + lam(wi))
+    ok = np.where(refr, (wi[:, 2] < 0) | keep_wrong_side, wi[:, 2] > 0)
+    w = np.where(ok, w, 0.0)
+    return w.mean(), w.std() / np.sqrt(n)
+
+
+def test_cycles_glass_exiting_tables_keep_refractions_on_the_wrong_side(cycles_glass):
+    """ggx_glass_inv_E (wo inside the glass, eta = 1/ior) differs from this BSDF where eta < 1
+    lets a refracted direction point back to wo's side (grazing mu, rough): Cycles generated
+    the table with a sampler that did not reject those directions (blender/cycles 34125e1d0;
+    the current sampler rejects them, as this one does). Shown three ways: (1) no cell of ours
+    exceeds Cycles' beyond the noise (the extra directions only add energy) and the cells at
+    mu >= 0.8 and at ior = 1 all agree; (2) at three cells where they disagree, an independent
+    NumPy estimator of Cycles' 2023 rule reproduces Cycles' number and the same estimator with
+    the rejection reproduces ours; (3) the averages likewise bound ours from above."""
+    _, I = _cycles_glass("cycles_ggx_glass_E.csv")
+    _, B = _cycles_glass("cycles_ggx_glass_Eavg.csv")
+    t = cycles_glass["table_ggx_glass_inv_E"]
+    bad, d = _glass_bad(t, I, 2 ** 23)
+    assert not np.any(bad & (d > 0)), np.argwhere(bad & (d > 0))
+    assert not bad[:, 12:].any() and not bad[0].any() and bad.sum() > 500
+    zb = z_bound(3 * 2)
+    for k, i, j in ((7, 1, 15), (4, 4, 8), (1, 0, 13)):
+        zk = k / 15
+        eta = (1 - zk * zk) / (1 + zk * zk)
+        mu, alpha = max(i / 15, 1e-4), max(j / 15, 0.01) ** 2
+        old, s_old = _cycles_2023_glass(eta, mu, alpha, True)
+        new, s_new = _cycles_2023_glass(eta, mu, alpha, False)
+        sig_c = s_old * np.sqrt(2 ** 20 / 2 ** 23)          # Cycles' own noise
+        assert abs(old - I[k, i, j]) < zb * np.hypot(s_old, sig_c) + 2e-6, (k, i, j, old, I[k, i, j])
+        assert abs(new - t.values[k, i, j]) < zb * np.hypot(s_new, t.stderr[k, i, j]) + 1e-6, \
+            (k, i, j, new, t.values[k, i, j])
+        assert I[k, i, j] - t.values[k, i, j] > 0.02
+    bad_a, da = _glass_bad(cycles_glass["table_ggx_glass_inv_Eavg"], B, 2 ** 26)
+    assert not np.any(bad_a & (da > 0)) and not bad_a[0].any()
 
 
 def test_threejs_matches_within_its_own_sampling_error():
@@ -607,7 +724,7 @@ def test_white_furnace_after_compensation_is_one_within_the_table_error():
     albedo of 1 within the table's reported interpolation error plus 5 standard errors (of the
     direct E_ss and of the table), where the uncompensated GGX loses up to 69 % (r = 1, mu = 1)."""
     from clbrdf.studies.furnace import white_furnace
-    tables = make_layout("cycles", samples=1 << 18)
+    tables = make_layout("cycles", samples=1 << 18, only=REFLECTION)
     f = white_furnace(tables, samples=1 << 18)
     t = tables["table_ggx_E"]
     slack = t.meta["interpolation"]["max_error"] + 5 * (f["E_ss_stderr"] + t.stderr.max())
@@ -625,7 +742,8 @@ def test_example_program_returns_the_lost_energy(tmp_path):
     cc = shutil.which("gcc")
     if cc is None:
         pytest.skip("gcc not installed")
-    save_tables(make_layout("cycles", samples=1 << 14), tmp_path / "ggx_E.h", prefix="cycles")
+    save_tables(make_layout("cycles", samples=1 << 14, only=REFLECTION), tmp_path / "ggx_E.h",
+                prefix="cycles")
     src = Path(__file__).parent.parent / "examples" / "energy_compensation.c"
     subprocess.run([cc, "-std=c99", "-Wall", "-Wextra", "-Werror", "-I", str(tmp_path), str(src),
                     "-o", str(tmp_path / "ec"), "-lm"], check=True)

@@ -47,9 +47,10 @@ def _check_axis(ax: dict, spec, random: bool) -> dict:
         why = "an option: give it as a fixed argument" if name in opts else "not a parameter"
         raise ParameterError(f"axis {name!r} of model {spec.name} is {why}; axes are the "
                              f"parameters {', '.join(p.name for p in spec.params)}")
-    if ax.get("min") is not None:
-        raise ParameterError(f"axis {name}: min= is for tables; a sweep evaluates every value "
-                             f"it is given")
+    for k in ("min", "max"):
+        if ax.get(k) is not None:
+            raise ParameterError(f"axis {name}: {k}= is for tables; a sweep evaluates every "
+                                 f"value it is given")
     ax = check_form(ax, random)
     p = spec.param(name)
     p.check(np.asarray(ax["values"] if "values" in ax else [ax["start"], ax["stop"]]))

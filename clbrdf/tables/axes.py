@@ -1,7 +1,7 @@
 """Axes of tables and sweeps: the one parser of ``NAME=...`` axis text, spacings, sample
 placement, and the mapped axes that renderers' tables use.
 
-    NAME=START:STOP:COUNT[:SPACING][:PLACEMENT][:min=LO]    a grid of COUNT values
+    NAME=START:STOP:COUNT[:SPACING][:PLACEMENT][:min=LO][:max=HI]    a grid of COUNT values
     NAME=START:STOP[:SPACING]                                a range (random points of a sweep)
     NAME=v1,v2,...                                           a list of values
 
@@ -10,12 +10,15 @@ PLACEMENT is ``nodes`` (default: position t = i / (COUNT - 1), both ends include
 (t = (i + 0.5) / COUNT, the texel centres of a texture of COUNT texels over [START, STOP]); the
 value is the spacing's map of t onto [START, STOP]. ``min=LO`` evaluates the model at
 max(value, LO) while the axis keeps the value (Cycles' table has a row mu = 0 computed at
-mu = 1e-4).
+mu = 1e-4), ``max=HI`` at min(value, HI) (Cycles' glass tables: z = 1 computed at 0.99).
 
 Mapped axes (``MAPPED``) name a quantity that the model takes in another form: ``r`` is the
 roughness with alpha = r^2 (Cycles, Filament, UE, OSPRay: "perceptual" roughness; also Adobe's
 sqrt(alpha) axis), ``theta`` is the polar angle of wo in radians with mu = cos(theta) (MDL's
-theta-linear axis).
+theta-linear axis), ``ior_z`` and ``inv_ior_z`` the index of refraction's axis of Cycles' glass
+tables, z = F0^(1/4) = sqrt((ior - 1)/(ior + 1)), with eta = ior = (1 + z^2)/(1 - z^2)
+(entering, ``ior_z``) or eta = 1/ior (exiting, ``inv_ior_z``; a wo above a surface of relative
+index 1/ior is a wo below one of ior).
 """
 from __future__ import annotations
 
@@ -33,9 +36,13 @@ MAX_COUNT = 1_000_000
 MAPPED = {
     "r": ("alpha", "alpha = r^2", lambda r: r * r, np.sqrt),
     "theta": ("mu", "mu = cos(theta)", np.cos, np.arccos),
+    "ior_z": ("eta", "eta = (1 + z^2) / (1 - z^2)", lambda z: (1 + z * z) / (1 - z * z),
+              lambda e: np.sqrt((e - 1) / (e + 1))),
+    "inv_ior_z": ("eta", "eta = (1 - z^2) / (1 + z^2)", lambda z: (1 - z * z) / (1 + z * z),
+                  lambda e: np.sqrt((1 - e) / (1 + e))),
 }
 
-FORM = ("expected NAME=START:STOP:COUNT[:lin|log|sqrt][:nodes|centres][:min=LO], "
+FORM = ("expected NAME=START:STOP:COUNT[:lin|log|sqrt][:nodes|centres][:min=LO][:max=HI], "
         "NAME=START:STOP[:SPACING] (random points) or NAME=v1,v2,...")
 
 
@@ -68,11 +75,14 @@ def parse_axis(text: str) -> dict:
             ax["placement"] = "centres" if f == "centers" else f
         elif f.startswith("min="):
             ax["min"] = num(f[4:], "min")
-        elif len(nums) < 3 and not ({"spacing", "placement", "min"} & set(ax)):
+        elif f.startswith("max="):
+            ax["max"] = num(f[4:], "max")
+        elif len(nums) < 3 and not ({"spacing", "placement", "min", "max"} & set(ax)):
             nums.append(f)
         else:
             raise ParameterError(f"axis {text!r}: {f!r} is not a spacing ({', '.join(SPACINGS)}),"
-                                 f" a placement ({', '.join(PLACEMENTS)}) or min=LO ({FORM})")
+                                 f" a placement ({', '.join(PLACEMENTS)}), min=LO or max=HI "
+                                 f"({FORM})")
     if len(nums) not in (2, 3):
         raise ParameterError(f"axis {text!r} is malformed: {FORM}")
     ax["start"], ax["stop"] = num(nums[0], "START"), num(nums[1], "STOP")
@@ -163,9 +173,10 @@ def check_form(ax: dict, random: bool = False) -> dict:
     if placement not in PLACEMENTS:
         raise ParameterError(f"axis {name}: placement={placement!r} is not valid: choose one of "
                              f"{', '.join(PLACEMENTS)}")
-    extra = {k: ax[k] for k in ("min",) if ax.get(k) is not None}
-    if "min" in extra and not math.isfinite(float(extra["min"])):
-        raise ParameterError(f"axis {name}: min={extra['min']!r} is not finite")
+    extra = {k: ax[k] for k in ("min", "max") if ax.get(k) is not None}
+    for k in extra:
+        if not math.isfinite(float(extra[k])):
+            raise ParameterError(f"axis {name}: {k}={extra[k]!r} is not finite")
     if is_list:
         if random:
             raise ParameterError(f"axis {name} is a list of values: random points need a range "
@@ -214,10 +225,13 @@ def midpoints(ax: dict) -> list:
 
 
 def evaluated(ax: dict) -> np.ndarray:
-    """The values the model is evaluated at: max(value, min), through the map of a mapped axis."""
+    """The values the model is evaluated at: value clamped to [min, max], through the map of a
+    mapped axis."""
     v = np.asarray(ax["values"], dtype=np.float64)
     if ax.get("min") is not None:
         v = np.maximum(v, float(ax["min"]))
+    if ax.get("max") is not None:
+        v = np.minimum(v, float(ax["max"]))
     if ax["name"] in MAPPED:
         v = MAPPED[ax["name"]][2](v)
     return v
@@ -236,6 +250,8 @@ def describe(ax: dict) -> str:
         s = f"{n}: {ax['start']:g} .. {ax['stop']:g}, {ax['spacing']}"
     if ax.get("min") is not None:
         s += f", evaluated at {n} >= {ax['min']:g}"
+    if ax.get("max") is not None:
+        s += f", evaluated at {n} <= {ax['max']:g}"
     if n in MAPPED:
         s += f" ({MAPPED[n][1]})"
     return s
@@ -252,6 +268,7 @@ def axis_text(ax: dict) -> str:
         parts.append(ax["spacing"])
     if ax.get("placement", "nodes") != "nodes":
         parts.append(ax["placement"])
-    if ax.get("min") is not None:
-        parts.append(f"min={ax['min']:g}")
+    for k in ("min", "max"):
+        if ax.get(k) is not None:
+            parts.append(f"{k}={ax[k]:g}")
     return f"{ax['name']}=" + ":".join(parts)

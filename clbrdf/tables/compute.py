@@ -87,11 +87,12 @@ def table_axes(spec, axes, fixed=None, precision: str = "single", spacing=None) 
         try:
             v = ax_mod.evaluated(ax)
             if target == "mu":
-                check_mu(v, precision)
+                check_mu(v, precision, below=spec.transmits)
             elif name != "phi":
                 spec.param(target).check(v)
         except ParameterError as e:
-            hint = ("" if ax.get("min") is not None or ax.get("spacing") == "list" else
+            hint = ("" if ax.get("min") is not None or ax.get("max") is not None
+                    or ax.get("spacing") == "list" else
                     "; an axis can keep its values and be evaluated at max(value, LO) with "
                     ":min=LO")
             raise ParameterError(f"axis {ax_mod.axis_text(ax)}: {e}{hint}") from None

@@ -185,7 +185,7 @@ def compute_table(model: str, name: str, quantity, axes: list, *, fixed=None, va
         for a in axes_out:
             m = midpoints(a) or a["values"]
             mids.append(check_form({"name": a["name"], "values": m,
-                                    **({"min": a["min"]} if a.get("min") is not None else {})}))
+                                    **{k: a[k] for k in ("min", "max") if a.get(k) is not None}}))
         ck = {**kw, "progress": False, "seed": kw.get("seed", 0) + 1,
               "samples": min(kw.get("samples", CHECK_SAMPLES), CHECK_SAMPLES)}
         mv, ms, _ = _run(model, mids, qs, fixed, **ck)
@@ -284,15 +284,25 @@ def layout_table(lay: dict, tab: dict, *, layout: str | None = None, **kw):
                  meta=meta)
 
 
-def make_layout(name: str, *, samples=None, estimator=None, progress=False, command=None, **kw):
+def make_layout(name: str, *, samples=None, estimator=None, progress=False, command=None,
+                only=None, **kw):
     """Every table of layout ``name`` (clbrdf/data/layouts.json) at the layout's published sample
     count unless ``samples`` is given; returns {table name: Table}. ``estimator``: every
     channel's; None: brdf, and a channel of another model its layout's choice (Filament's cloth
-    channel: mis)."""
+    channel: mis). ``only``: the names of the tables to make (default: all)."""
     lay = get_layout(name)
     samples = lay.get("samples", 1 << 16) if samples is None else samples
+    names = [t["name"] for t in lay["tables"]]
+    if only is not None:
+        only = [only] if isinstance(only, str) else list(only)
+        unknown = [n for n in only if n not in names]
+        if unknown:
+            raise ParameterError(f"only={unknown[0]!r} is not a table of layout {name}: choose "
+                                 f"from {', '.join(names)}")
     out = {}
     for tab in lay["tables"]:
+        if only is not None and tab["name"] not in only:
+            continue
         t = layout_table(lay, tab, layout=name, samples=samples, estimator=estimator,
                          progress=progress, command=command, **kw)
         t.meta.update({"consumer": lay["consumer"], "source": lay["source"],
