@@ -337,6 +337,7 @@ typedef struct {
     real_t alpha_x;           /* roughness along the tangent x (anisotropic), [0.0001, 10], default 0.5 */
     real_t alpha_y;           /* roughness along the bitangent y (anisotropic), [0.0001, 10], default 0.5 */
     real_t eta;               /* index of refraction below the surface relative to above (1/eta seen from below), [0.01, 100], default 1.5 */
+    Tables tables;            /* the generated tables (clbrdf_tables.h) */
 } clbrdf_dielectric_params;
 #define dielectric_params clbrdf_dielectric_params
 
@@ -351,6 +352,7 @@ FN clbrdf_dielectric_params clbrdf_ggx_dielectric_defaults(void)
     p.alpha_x = (real_t)0.5;
     p.alpha_y = (real_t)0.5;
     p.eta = (real_t)1.5;
+    p.tables = 0;               /* set it: clbrdf_tables.h */
     return p;
 }
 /* f(wo, wi) per channel (1/sr), without the cosine */
@@ -370,6 +372,7 @@ FN clbrdf_dielectric_params clbrdf_beckmann_dielectric_defaults(void)
     p.alpha_x = (real_t)0.5;
     p.alpha_y = (real_t)0.5;
     p.eta = (real_t)1.5;
+    p.tables = 0;               /* set it: clbrdf_tables.h */
     return p;
 }
 /* f(wo, wi) per channel (1/sr), without the cosine */

@@ -97,7 +97,10 @@ def generate() -> str:
     for prefix, members in families.items():
         name0, spec0 = members[0]
         struct = f"clbrdf_{prefix}_params"
-        tables = any(uses_tables(s) for _, s in members)
+        # the tables pointer: a family that reads generated tables, or one on the microfacet
+        # distributions (their Microfacet struct carries it in the C API, clbrdf.h)
+        on_mf = any("MF_DIST" in dict(s.configure(channels=1)[0].defines) for _, s in members)
+        tables = on_mf or any(uses_tables(s) for _, s in members)
         params, seen = [], set()
         for _, s in members:
             for p in s.params:

@@ -27,6 +27,7 @@ WARN = capi.WARN
 ULPS = {"single": 64, "double": 64}
 N = 400
 TABLES = [n for n in MODELS if capi.uses_tables(clbrdf.Model(n))]
+TABLES_PREFIXES = {MODELS[n].prefix for n in TABLES}
 
 
 def _have(tool):
@@ -144,10 +145,12 @@ def test_c_api_compiles_warning_free(compiler, std, precision, dist, tmp_path):
     ext = "cpp" if compiler == "g++" else "c"
     src = tmp_path / f"all.{ext}"
     calls = []
-    others = [n for n, s in MODELS.items() if s.prefix != "microfacet"]
-    with_tables = {MODELS[n].prefix for n in TABLES}
-    for model in [dist] + others:
-        set_t = " p.tables = T;" if MODELS[model].prefix in with_tables else ""
+    def on(s):          # the distribution of a model on the microfacet distributions, or None
+        return dict(s.configure()[0].defines).get("MF_DIST")
+    models = [n for n, s in MODELS.items() if on(s) in (None, dist)]
+    for model in models:
+        set_t = " p.tables = T;" if on(MODELS[model]) or MODELS[model].prefix in TABLES_PREFIXES \
+            else ""
         calls.append(f"    {{ clbrdf_{model}_params p = clbrdf_{model}_defaults();{set_t}"
                      f" spec f = clbrdf_{model}_eval(&p, wo, wi);"
                      f" BSample s = clbrdf_{model}_sample(&p, wo, clbrdf_random(1, 2, 3, 4));"

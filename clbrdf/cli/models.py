@@ -184,8 +184,9 @@ def cmd_models(args) -> int:
 def cmd_eval(args) -> int:
     spec = spec_of(args.model)
     params = parse_params(spec, args.param)
-    wi = check_directions("wi", parse_vector(args.wi, "wi"))
-    wo = check_directions("wo", parse_vector(args.wo, "wo"))
+    below = spec.transmits          # a BSDF takes directions on both sides
+    wi = check_directions("wi", parse_vector(args.wi, "wi"), allow_below=below)
+    wo = check_directions("wo", parse_vector(args.wo, "wo"), allow_below=below)
     m = model_for(spec.name, args, params)
     f = np.asarray(m.eval(wo, wi), dtype=float)
     value = f.tolist()
@@ -309,7 +310,8 @@ def add_parsers(sub) -> None:
     model_arg(p)
     p.add_argument("--mu", required=True, action=Once, metavar="LIST",
                    help="comma-separated cos(theta_o) values in [1e-6, 1] (single) or [1e-12, 1] "
-                        "(double), e.g. 0.1,0.5,1")
+                        "(double), e.g. 0.1,0.5,1; negative for a wo below the surface of a "
+                        "model that transmits (ggx_dielectric: --mu=-0.5,0.5)")
     p.add_argument("--phi", default="0", action=Once, metavar="P", help="azimuth of wo in radians (default 0)")
     sampling_args(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")

@@ -264,10 +264,10 @@ def check_mu(mu, precision: str = "double", below: bool = False) -> np.ndarray:
     bad = ~np.isfinite(mu) | (a < lo) | (a > 1)
     if np.any(bad):
         v = mu.reshape(-1)[np.argmax(bad.reshape(-1))]
-        valid = (f"[-1, -{lo:g}] or [{lo:g}, 1] (wo above or below the surface)" if below
-                 else f"[{lo:g}, 1] (a direction above the horizon)")
+        valid, where = ((f"[-1, -{lo:g}] or [{lo:g}, 1]", "wo above or below the surface")
+                        if below else (f"[{lo:g}, 1]", "a direction above the horizon"))
         raise ParameterError(f"mu={float(v)!r} is out of range: valid mu = cos(theta_o) is in "
-                             f"{valid} in {precision} precision")
+                             f"{valid} in {precision} precision ({where})")
     return mu
 
 
