@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ..models.spec import ParameterError
-from ..studies.furnace import white_furnace
+from ..studies.furnace import glass_furnace, has_glass, white_furnace
 from ..tables.axes import parse_axis
 from ..tables.checkpoint import checkpoint
 from ..tables.compute import albedo_table, table_axes
@@ -46,13 +46,43 @@ def cmd_furnace(args) -> int:
     if not path.is_file():
         raise ParameterError(f"FILE {args.file!r} does not exist")
     tables = load_tables(path)
-    r = white_furnace(tables, samples=args.samples, device=args.device)
+    glass = has_glass(tables)
+    try:
+        r = white_furnace(tables, samples=args.samples, device=args.device)
+    except ParameterError:
+        if not glass:
+            raise
+        r = None            # glass tables only
+    g = glass_furnace(tables, samples=args.samples, device=args.device) if glass else None
     if args.json:
-        print(json.dumps({k: np.asarray(v).tolist() for k, v in r.items()}))
+        d = {k: np.asarray(v).tolist() for k, v in (r or {}).items()}
+        if g is not None:
+            d["glass"] = {k: np.asarray(v).tolist() for k, v in g.items()}
+        print(json.dumps(d))
         return 0
+    if r is not None:
+        _print_furnace(path, r, args.samples)
+    if g is not None:
+        _print_glass_furnace(path, g, args.samples)
+    return 0
+
+
+def _print_glass_furnace(path, g, samples):
+    print(f"white furnace of the glass in {path.name}: E_R + E_T before and after compensation "
+          f"({samples} Sobol samples per E_ss; x: Kulla-Conty's energy split)")
+    print(f"{'side':>8} {'ior':>5} {'r':>5} {'mu':>5} {'E_ss':>9} {'+-':>8} {'Turquin':>9} "
+          f"{'Kulla-Conty':>12} {'x':>7}")
+    for s, i, j, k in np.ndindex(g["E_ss"].shape):
+        print(f"{('entering', 'exiting')[s]:>8} {g['ior'][i]:5.2f} {g['r'][j]:5.2f} "
+              f"{g['mu'][k]:5.2f} {g['E_ss'][s, i, j, k]:9.6f} {g['E_ss_stderr'][s, i, j, k]:8.1e} "
+              f"{g['turquin'][s, i, j, k]:9.6f} {g['kulla_conty'][s, i, j, k]:12.6f} "
+              f"{g['x'][i, j]:7.4f}")
+
+
+def _print_furnace(path, r, samples):
     kc = "kulla_conty" in r
     print(f"white furnace of {path.name}: albedo before and after compensation "
-          f"({args.samples} Sobol samples per E_ss)")
+          f"({samples} Sobol samples per E_ss)")
     print(f"{'r':>5} {'mu':>5} {'E_ss':>9} {'+-':>8} {'Turquin':>9}" + (f" {'Kulla-Conty':>12}" if kc else ""))
     for idx in np.ndindex(r["r"].shape):
         line = (f"{r['r'][idx]:5.2f} {r['mu'][idx]:5.2f} {r['E_ss'][idx]:9.6f} "
@@ -60,7 +90,6 @@ def cmd_furnace(args) -> int:
         if kc:
             line += f" {r['kulla_conty'][idx]:12.6f}"
         print(line)
-    return 0
 
 
 def cmd_layouts(args) -> int:
@@ -260,11 +289,14 @@ def add_parsers(sub) -> None:
     p.set_defaults(func=cmd_table)
 
     p = sub.add_parser("furnace", parents=[dev],
-                       help="white furnace of GGX energy compensation with a layout's tables",
+                       help="white furnace of energy compensation (GGX, and glass) with a "
+                            "layout's tables",
                        description="E_ss(mu, r) estimated directly, and the albedo after Turquin's "
                                    "(f_ss / E) and Kulla-Conty's (f_ss + f_ms) compensation with "
                                    "the tables of FILE (.npz or .exr from 'clbrdf table --layout'): "
-                                   "1 for a perfect table.")
+                                   "1 for a perfect table. With a dielectric's tables from both "
+                                   "sides (Cycles' glass tables) also E_R + E_T entering and "
+                                   "exiting, with Kulla-Conty's reflection/transmission split.")
     p.add_argument("file", metavar="FILE")
     p.add_argument("--samples", "-n", type=int, default=1 << 20, metavar="N",
                    help="samples per direct estimate of E_ss (default 2^20)")

@@ -6,9 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..api.albedo import albedo
+from ..api.albedo import albedo, fresnel_avg
 from ..api.model import Model
 from ..models.spec import ParameterError
+from ..tables.axes import MAPPED
 from ..tables.files import flat
 
 
@@ -94,4 +95,124 @@ def white_furnace(tables: dict, *, r=(0.1, 0.25, 0.5, 0.75, 1.0), mu=(0.05, 0.2,
             norm = np.where(1 - e_avg > 0, integral / (1 - e_avg), 1.0)
         out["E_avg_table"] = e_avg
         out["kulla_conty"] = d.albedo + (1 - e_tab) * norm
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Glass: a rough dielectric's tables from both sides (docs/models/dielectric.md)
+
+def _eta_of(axis: dict):
+    """(values of the axis -> eta, eta -> values) of a table's index-of-refraction axis."""
+    name = axis["name"]
+    if name == "eta":
+        return (lambda v: v), (lambda e: e)
+    _, _, fwd, inv = MAPPED[name]
+    return fwd, inv
+
+
+def _glass_readers(tables: dict, directional: bool):
+    """read(eta, r, [mu]) of E (or E_avg) of a dielectric from the tables whose axes are an
+    index axis (eta, ior_z, inv_ior_z), r (and mu): each eta from the table whose range holds it
+    (Cycles: ior_z for eta >= 1, inv_ior_z for eta < 1). None if there is none."""
+    label = "E" if directional else "E_avg"
+    found = []
+    for t in tables.values():
+        names = set(t.axis_names)
+        idx = [a for a in t.axes if a["name"] in ("eta", "ior_z", "inv_ior_z")]
+        if len(idx) != 1 or names != {idx[0]["name"], "r"} | ({"mu"} if directional else set()) \
+                or not _reads(t, label):
+            continue
+        fwd, inv = _eta_of(idx[0])
+        ev = fwd(np.clip(np.asarray(idx[0]["values"], float), idx[0].get("min", -np.inf),
+                         idx[0].get("max", np.inf)))
+        found.append((t, idx[0]["name"], inv, float(np.min(ev)), float(np.max(ev))))
+    if not found:
+        return None
+
+    def read(eta, r, **coords):
+        eta = float(eta)
+        for t, name, inv, lo, hi in found:
+            if lo - 1e-12 <= eta <= hi + 1e-12:
+                return _read(t, label, **{name: float(inv(eta)), "r": r}, **coords)
+        raise ParameterError(f"no glass table holds eta={eta:g} (tables cover "
+                             f"{', '.join(f'[{lo:.4g}, {hi:.4g}]' for *_, lo, hi in found)})")
+    return read
+
+
+def has_glass(tables: dict) -> bool:
+    """Whether the tables hold a dielectric's E and E_avg over an index axis (glass_furnace)."""
+    t = flat(tables)
+    return _glass_readers(t, True) is not None and _glass_readers(t, False) is not None
+
+
+def kulla_conty_split(F_avg, F_avg_inv, E_avg_out, E_avg_in, eta):
+    """x of Kulla & Conty 2017's energy split of a dielectric's multiple-scattering lobes (as
+    MoonRay's TransmissionCookTorranceEnergyCompensation::computeFactor): with eta > 1 the
+    relative index from outside, t = eta^2 (1 - E_avg(1/eta)) / (1 - E_avg(eta)) (1 -
+    F_avg(1/eta)) / (1 - F_avg(eta)), x = t / (1 + t). From outside the compensating lobes take
+    the shares 1 - (1 - F_avg) x (reflection) and (1 - F_avg) x (transmission) of the energy
+    1 - E lost, from inside 1 - (1 - F_avg_inv)(1 - x) and (1 - F_avg_inv)(1 - x): the energy
+    transmitted by them from outside is eta^2 times that from inside, as for a smooth
+    interface (1 - F_avg(eta) = eta^2 (1 - F_avg(1/eta)))."""
+    t = eta ** 2 * (1 - E_avg_in) / (1 - E_avg_out) * (1 - F_avg_inv) / (1 - F_avg)
+    return t / (1 + t)
+
+
+def glass_furnace(tables: dict, *, ior=(1.2, 1.5, 2.0), r=(0.25, 0.5, 1.0), mu=(0.1, 0.5, 1.0),
+                  samples: int = 1 << 20, seed: int = 7, qmc: bool = True, **kw) -> dict:
+    """The white furnace of a rough dielectric's energy compensation with its tables from both
+    sides (E over (index, mu, r) and E_avg over (index, r): Cycles' four glass tables, or any
+    with axes eta, ior_z or inv_ior_z): E_ss = E_R + E_T of ``ggx_dielectric`` (the tables'
+    model and options) estimated directly at eta = ior (entering) and 1/ior (exiting), and
+    after Turquin's scaling, E_ss / E_tab, and Kulla-Conty's lobes, E_ss + (1 - E_tab(mu)) (a_R
+    J(eta) + a_T J(1/eta)), J(e) = 2 int (1 - E_tab(e, x)) x dx / (1 - E_avg_tab(e)), the shares
+    a_R, a_T from ``kulla_conty_split`` with the kernel's own F_avg. Both are 1 for perfect
+    tables. Arrays over (side, ior, r, mu), side 0 entering and 1 exiting; also x, J over
+    (side, ior, r) (1 where E_avg is consistent with E), and the ratio of the
+    multiple-scattering transmission out -> in over in -> out (eta^2)."""
+    tables = flat(tables)
+    read, read_avg = _glass_readers(tables, True), _glass_readers(tables, False)
+    if read is None or read_avg is None:
+        raise ParameterError("glass_furnace needs a dielectric's E over (eta, ior_z or inv_ior_z; "
+                             "mu; r) and E_avg over (that axis; r), from both sides")
+    t0 = next(t for t in tables.values() if {"mu", "r"} <= set(t.axis_names)
+              and set(t.axis_names) & {"eta", "ior_z", "inv_ior_z"})
+    comp = t0.meta.get("computed", {})
+    model = comp.get("model", "ggx_dielectric")
+    fixed = dict(comp.get("options", {}))
+    dev = {k: kw.pop(k) for k in ("device", "width", "precision") if k in kw}
+    iors, rs, mus = (np.asarray(v, float) for v in (ior, r, mu))
+    x_gl, w_gl = np.polynomial.legendre.leggauss(64)
+    x_gl, w_gl = (x_gl + 1) / 2, w_gl / 2
+    shape = (2, len(iors), len(rs), len(mus))
+    out = {k: np.zeros(shape) for k in ("E_ss", "E_ss_stderr", "E_table", "turquin",
+                                        "kulla_conty")}
+    out.update(ior=iors, r=rs, mu=mus, x=np.zeros((len(iors), len(rs))),
+               ms_transmission_ratio=np.zeros((len(iors), len(rs))),
+               J=np.zeros((2, len(iors), len(rs))))
+    for i, n in enumerate(iors):
+        fa, fa_inv = (float(fresnel_avg("ggx", fresnel="dielectric", eta=e, **{
+            k: v for k, v in dev.items() if k == "device"})) for e in (n, 1 / n))
+        for j, rv in enumerate(rs):
+            J, ea = {}, {}
+            for e in (n, 1 / n):
+                ea[e] = float(read_avg(e, rv))
+                integral = float(np.sum(w_gl * (1 - read(e, np.full_like(x_gl, rv), mu=x_gl))
+                                        * x_gl) * 2)
+                J[e] = integral / (1 - ea[e]) if 1 - ea[e] > 0 else 1.0
+            x = kulla_conty_split(fa, fa_inv, ea[n], ea[1 / n], n)
+            out["x"][i, j] = x
+            out["J"][:, i, j] = J[n], J[1 / n]
+            t_out, t_in = (1 - fa) * x, (1 - fa_inv) * (1 - x)
+            out["ms_transmission_ratio"][i, j] = (t_out * (1 - ea[n])) / (t_in * (1 - ea[1 / n]))
+            for side, (e, a_t) in enumerate(((n, t_out), (1 / n, t_in))):
+                m = Model(model, alpha=rv ** 2, eta=e, **fixed, **dev)
+                d = albedo(m, mus, samples=samples, seed=seed, qmc=qmc, **kw)
+                e_tab = np.asarray(read(e, np.full_like(mus, rv), mu=mus), float)
+                out["E_ss"][side, i, j] = d.albedo
+                out["E_ss_stderr"][side, i, j] = d.stderr
+                out["E_table"][side, i, j] = e_tab
+                out["turquin"][side, i, j] = d.albedo / e_tab
+                out["kulla_conty"][side, i, j] = d.albedo + (1 - e_tab) * (
+                    (1 - a_t) * J[e] + a_t * J[1 / e])
     return out
