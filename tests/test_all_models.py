@@ -85,7 +85,7 @@ def test_sample_weight_is_f_cos_over_pdf(name, precision):
     assert np.all(np.isfinite(w)) and np.all(np.isfinite(ps)) and np.all(ps >= 0)
     fs = m.eval(wo[ok], wi[ok])
     pe = m.pdf(wo[ok], wi[ok])
-    cos = wi[ok, 2].reshape((-1,) + (1,) * (fs.ndim - 1))
+    cos = np.abs(wi[ok, 2]).reshape((-1,) + (1,) * (fs.ndim - 1))   # |cos|: a BSDF
     rtol = 1e-3 if precision == "single" else 1e-8
     np.testing.assert_allclose(pe, ps[ok], rtol=rtol, atol=0)
     wt = w[ok]

@@ -239,7 +239,7 @@ FLAG_WORDS = [
     (r"(?<=: )(preset|estimator|qmc|samples|seed|precision|width|chunk|random) differs",
      r"--\1 differs"),
     (r"(?<=: )model differs", "MODEL differs"),
-    (r"\bestimator='(\w+)'", r"--estimator \1"),
+    (r"\bestimator='(\w+)' cannot see", r"--estimator \1 cannot see"),
 ]
 
 
