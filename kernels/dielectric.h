@@ -68,7 +68,7 @@ FN Microfacet di_distribution(const dielectric_params *p)
 
 /* The frame where wo is above: *s = -1 where wo.z < 0 (the z of both directions negated), 1
  * elsewhere; returns the relative index of the side opposite wo. */
-FN realN di_frame(const dielectric_params *p, vec3 *wo, vec3 *wi, realN *s)
+ALWAYS_INLINE realN di_frame(const dielectric_params *p, vec3 *wo, vec3 *wi, realN *s)
 {
     maskN below = wo->z < 0;
     *s = sel((realN)1, (realN)-1, below);
@@ -124,7 +124,7 @@ FN realN di_normal_pdf(Microfacet m, vec3 wo, vec3 h, realN oh)
  * generalised half vector h = (wo + e wi) / |wo + e wi| (e = 1 for reflection, eta for
  * refraction), turned to h.z > 0: with L = |wo + e wi|, (wi.h + wo.h / eta)^2 = L^2 / eta^2,
  * which needs no difference of nearly equal cosines where eta is near 1. */
-FN realN di_eval_pdf(const dielectric_params *p, vec3 wo, vec3 wi, realN eta, realN *pdf)
+ALWAYS_INLINE realN di_eval_pdf(const dielectric_params *p, vec3 wo, vec3 wi, realN eta, realN *pdf)
 {
     Microfacet m = di_distribution(p);
     maskN refl = wi.z > 0;
@@ -169,53 +169,64 @@ ALWAYS_INLINE realN dielectric_pdf(const dielectric_params *p, vec3 wo, vec3 wi)
     return pdf;
 }
 
-/* Both branches of the sampler at the normal drawn from (u0, u1), in the frame where wo is
- * above: the reflected and the refracted direction with their weights f |cos_i| / pdf (the
- * branch's share of F or 1 - F over its probability; 0 where the branch is impossible) and
- * densities, and the probabilities *pr, *pt = 1 - *pr of the branches. Refraction: wi = -wo / eta +
- * k h with k = wo.h / eta - cos_t = (1 - eta^2) / (eta (wo.h + eta cos_t)) (no cancellation near
- * eta = 1), and (wi.h + wo.h / eta)^2 = k^2. */
-FN void di_branches(const dielectric_params *p, vec3 wo, realN eta, rand4 u, BSample *r, BSample *t,
-                    realN *pr, realN *pt)
+/* The sampler's microfacet normal, drawn from (u0, u1) in the frame where wo is above, and what
+ * both branches need of it: c = wo.h, g^2 = eta^2 cos_t^2, the Fresnel F and T, the branches'
+ * probabilities and the density of h. */
+typedef struct { Microfacet m; vec3 h; realN c, g2, g, F, T, pr, pt, ph; } DiNormal;
+
+ALWAYS_INLINE DiNormal di_normal(const dielectric_params *p, vec3 wo, realN eta, rand4 u)
 {
-    Microfacet m = di_distribution(p);
+    DiNormal n;
+    n.m = di_distribution(p);
 #if MF_SAMPLER == SAMPLER_VNDF
-    vec3 h = normalize3(MF(sample_vndf)(m, wo, u.u0, u.u1));
+    n.h = normalize3(MF(sample_vndf)(n.m, wo, u.u0, u.u1));
 #else
-    vec3 h = MF(sample_ndf)(m, u.u0, u.u1);
+    n.h = MF(sample_ndf)(n.m, u.u0, u.u1);
 #endif
-    realN c = dot3(wo, h);
-    realN s2 = (1 - c) * (1 + c);
-    realN g2 = eta2_minus_sin2(eta, c, s2);          /* eta^2 cos_t^2 */
-    realN g = safe_sqrt(g2);
-    realN F = fresnel_dielectric(eta, c), T = fresnel_dielectric_T(eta, c);
-    di_branch_probs(F, T, pr, pt);
-    realN k = (1 - eta) * (1 + eta) / (eta * (c + g));
-    r->wi = reflect3(wo, h);
-    t->wi = sub3(scale3(h, k), scale3(wo, 1 / eta));
-    realN ph = di_normal_pdf(m, wo, h, c);
-    realN jac_t = g / (eta * k * k);                /* |wi.h| / (wi.h + wo.h/eta)^2 */
-    r->pdf = *pr * ph / (4 * c);
-    t->pdf = *pt * ph * jac_t;
+    n.c = dot3(wo, n.h);
+    n.g2 = eta2_minus_sin2(eta, n.c, (1 - n.c) * (1 + n.c));
+    n.g = safe_sqrt(n.g2);
+    n.F = fresnel_dielectric_FT(eta, n.c, &n.T);
+    di_branch_probs(n.F, n.T, &n.pr, &n.pt);
+    n.ph = di_normal_pdf(n.m, wo, n.h, n.c);
+    return n;
+}
+
+/* The sample of the branch ``refl`` picks per lane (reflection where true): its direction, its
+ * weight f |cos_i| / pdf (the branch's share of F or T over its probability, 1 for DI_BOTH,
+ * times G / G1(wo); 0 where the branch is impossible) and density. Refraction: wi = -wo / eta +
+ * k h with k = wo.h / eta - cos_t = (1 - eta^2) / (eta (wo.h + eta cos_t)) (no cancellation near
+ * eta = 1), and (wi.h + wo.h / eta)^2 = k^2. One direction and one masking term per sample: the
+ * branch is chosen first (computing both cost GGX glass 25 % of its speed). */
+ALWAYS_INLINE BSample di_branch(const DiNormal *n, vec3 wo, realN eta, maskN refl)
+{
+    vec3 h = n->h;
+    realN c = n->c;
+    realN k = (1 - eta) * (1 + eta) / (eta * (c + n->g));
+    BSample b;
+    b.wi = select3(sub3(scale3(h, k), scale3(wo, 1 / eta)), reflect3(wo, h), refl);
 #if MF_SAMPLER == SAMPLER_VNDF
-    realN gr = mf_G_over_G1(m, wo, r->wi, h), gt = mf_G_over_G1(m, wo, t->wi, h);
+    realN g = mf_G_over_G1(n->m, wo, b.wi, h);
 #else
-    realN q = c / (wo.z * h.z);                     /* f |cos_i| / pdf = (.) G wo.h / (cos_o h.z) */
-    realN gr = mf_G(m, wo, r->wi, h) * q, gt = mf_G(m, wo, t->wi, h) * q;
+    realN g = mf_G(n->m, wo, b.wi, h) * c / (wo.z * h.z);   /* (.) G wo.h / (cos_o h.z) */
 #endif
-    /* the branch's share of the Fresnel split over its probability: 1 for DI_BOTH */
-    realN wr = (DI_KEEPS_R ? F : (realN)0) / *pr, wt = (DI_KEEPS_T ? T : (realN)0) / *pt;
-    realN one = (realN)1;
-    r->weight = spec_splat(gr * (DI_LOBES == DI_BOTH ? one : wr));
-    t->weight = spec_splat(gt * (DI_LOBES == DI_BOTH ? one : wt) * di_transport(eta));
+#if DI_LOBES == DI_BOTH
+    realN share = (realN)1;
+#else
+    realN share = sel((DI_KEEPS_T ? n->T : (realN)0) / n->pt,
+                      (DI_KEEPS_R ? n->F : (realN)0) / n->pr, refl);
+#endif
+    b.weight = spec_splat(g * share * sel(di_transport(eta), (realN)1, refl));
+    b.pdf = n->ph * sel(n->pt * n->g / (eta * k * k), n->pr / (4 * c), refl);
     maskN up = (wo.z > 0) & (c > 0);
     /* eta = 1: no interface, the delta wi = -wo of weight 1 */
-    maskN none = eta == 1;
-    t->wi = select3(t->wi, scale3(wo, (realN)-1), none);
-    t->weight = spec_sel(t->weight, spec_splat((realN)(DI_KEEPS_T ? 1 : 0)), none);
-    t->pdf = sel(t->pdf, (realN)INFINITY, none);
-    *r = bsample_where(*r, up & (r->wi.z > 0) & (*pr > 0));
-    *t = bsample_where(*t, (up | none) & (t->wi.z < 0) & (g2 > 0) & (*pt > 0));
+    maskN none = (eta == 1) & !refl;
+    b.wi = select3(b.wi, scale3(wo, (realN)-1), none);
+    b.weight = spec_sel(b.weight, spec_splat((realN)(DI_KEEPS_T ? 1 : 0)), none);
+    b.pdf = sel(b.pdf, (realN)INFINITY, none);
+    maskN ok = sel((up | none) & (b.wi.z < 0) & (n->g2 > 0) & (n->pt > 0),
+                   up & (b.wi.z > 0) & (n->pr > 0), refl);
+    return bsample_where(b, ok);
 }
 
 ALWAYS_INLINE BSample dielectric_sample(const dielectric_params *p, vec3 wo, rand4 u)
@@ -223,14 +234,8 @@ ALWAYS_INLINE BSample dielectric_sample(const dielectric_params *p, vec3 wo, ran
     realN s;
     vec3 wi = wo;
     realN eta = di_frame(p, &wo, &wi, &s);
-    BSample r, t;
-    realN pr, pt;
-    di_branches(p, wo, eta, u, &r, &t, &pr, &pt);
-    maskN refl = u.u2 < pr;
-    BSample b;
-    b.wi = select3(t.wi, r.wi, refl);
-    b.weight = spec_sel(t.weight, r.weight, refl);
-    b.pdf = sel(t.pdf, r.pdf, refl);
+    DiNormal n = di_normal(p, wo, eta, u);
+    BSample b = di_branch(&n, wo, eta, u.u2 < n.pr);
     b.wi.z *= s;
     return b;
 }
@@ -242,10 +247,10 @@ FN spec dielectric_sample_mean(const dielectric_params *p, vec3 wo, rand4 u)
     realN s;
     vec3 wi = wo;
     realN eta = di_frame(p, &wo, &wi, &s);
-    BSample r, t;
-    realN pr, pt;
-    di_branches(p, wo, eta, u, &r, &t, &pr, &pt);
-    return spec_add(spec_scale(r.weight, pr), spec_scale(t.weight, pt));
+    DiNormal n = di_normal(p, wo, eta, u);
+    BSample r = di_branch(&n, wo, eta, TO_MASK((uintN)1 == (uintN)1));
+    BSample t = di_branch(&n, wo, eta, TO_MASK((uintN)1 == (uintN)0));
+    return spec_add(spec_scale(r.weight, n.pr), spec_scale(t.weight, n.pt));
 }
 
 #endif

@@ -43,17 +43,28 @@ FN realN fresnel_dielectric(realN eta, realN c)
     return sel(F, (realN)1, g2 < 0);
 }
 
-/* 1 - fresnel_dielectric(eta, c), the transmittance, without the cancellation of 1 - F where F
- * is near 1 (grazing c, or near the critical angle): with r_s = (c - g)/(c + g) and
- * r_p = (eta^2 c - g)/(eta^2 c + g) (F = (r_s^2 + r_p^2)/2), 1 - r_s^2 = 4 c g / (c + g)^2 and
- * 1 - r_p^2 = 4 eta^2 c g / (eta^2 c + g)^2. 0 beyond the critical angle. */
-FN realN fresnel_dielectric_T(realN eta, realN c)
+/* The reflectance F and, in *T, the transmittance 1 - F without the cancellation of 1 - F where
+ * F is near 1 (grazing c, or near the critical angle), sharing g: with
+ * r_s = (c - g)/(c + g) and r_p = (eta^2 c - g)/(eta^2 c + g), F = (r_s^2 + r_p^2)/2 (Born &
+ * Wolf; fresnel_dielectric's value to rounding), 1 - r_s^2 = 4 c g / (c + g)^2 and
+ * 1 - r_p^2 = 4 eta^2 c g / (eta^2 c + g)^2. F = 1, T = 0 beyond the critical angle. */
+FN realN fresnel_dielectric_FT(realN eta, realN c, realN *T)
 {
     realN s2 = (1 - c) * (1 + c);
     realN g2 = eta2_minus_sin2(eta, c, s2);
     realN g = safe_sqrt(g2), e2c = eta * eta * c;
-    realN T = 2 * c * g * (1 / sqr(c + g) + eta * eta / sqr(e2c + g));
-    return sel(T, (realN)0, (g2 <= 0) | (c <= 0));
+    realN i1 = 1 / (c + g), i2 = 1 / (e2c + g);
+    realN rs = (c - g) * i1, rp = (e2c - g) * i2;
+    maskN none = (g2 <= 0) | (c <= 0);
+    *T = sel(2 * c * g * (i1 * i1 + eta * eta * i2 * i2), (realN)0, none);
+    return sel((realN)0.5 * (rs * rs + rp * rp), (realN)1, none);
+}
+
+FN realN fresnel_dielectric_T(realN eta, realN c)
+{
+    realN T;
+    fresnel_dielectric_FT(eta, c, &T);
+    return T;
 }
 
 /* Unpolarised conductor with complex index eta + i k (Born & Wolf, real arithmetic form):

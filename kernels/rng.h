@@ -104,6 +104,33 @@ FN rand4 rand_philox_pair(uintN sample, uint point, uint stream, uint seed_lo, u
     return r;
 }
 
+/* Three numbers of sample `sample` as the albedo estimators that use three per estimate draw them
+ * with Philox (integrators.cl, RNG_TRIPLES: brdf with a sampler whose u2 picks a lobe or a
+ * branch): three calls, counters (3 g + j, point, stream, 0) for j = 0, 1, 2, serve the four
+ * samples 4 g .. 4 g + 3, sample 4 g + i taking words 3 i, 3 i + 1, 3 i + 2 of the twelve;
+ * u3 = 1/2. albedo_blocks draws them four at a time. */
+FN rand4 rand_philox_triple(uintN sample, uint point, uint stream, uint seed_lo, uint seed_hi)
+{
+    uintN g = sample >> 2, i = sample & 3u;
+    realN w[12];
+    for (uint j = 0; j < 3; ++j) {
+        uint4N c = {3 * g + j, (uintN)point, (uintN)stream, (uintN)0};
+        c = philox4x32_10(c, seed_lo, seed_hi);
+        w[4 * j] = bits_to_unit(c.c0);
+        w[4 * j + 1] = bits_to_unit(c.c1);
+        w[4 * j + 2] = bits_to_unit(c.c2);
+        w[4 * j + 3] = bits_to_unit(c.c3);
+    }
+    rand4 r = {w[0], w[1], w[2], (realN)0.5};
+    for (uint k = 1; k < 4; ++k) {
+        maskN m = TO_MASK(i == (uintN)k);
+        r.u0 = sel(r.u0, w[3 * k], m);
+        r.u1 = sel(r.u1, w[3 * k + 1], m);
+        r.u2 = sel(r.u2, w[3 * k + 2], m);
+    }
+    return r;
+}
+
 /* Sobol generator matrices of dimensions 0-3 (Joe & Kuo's direction numbers), bit-reversed:
  * column j, the contribution of index bit j, holds the direction number v_j with its bits
  * reversed (bit k of the column is bit 31 - k of v_j). A point is built reversed, scrambled there

@@ -119,3 +119,29 @@ def test_cli_takes_directions_below_for_a_bsdf():
     assert r.returncode != 0 and "--estimator uniform cannot see the delta" in r.stderr
     r = run_inprocess("eval", "ggx", "--wo", "0,0,1", "--wi", "0.1,0,-0.99498744")
     assert r.returncode != 0 and "below the horizon" in r.stderr
+
+
+@pytest.mark.parametrize("name, kw", [("ggx_dielectric", {"alpha": 0.4, "eta": 1.33}),
+                                      ("ggx", {"alpha": 0.3, "kd": 0.2})])
+def test_three_number_estimates_use_rand_philox_triple(name, kw):
+    """A sampler of three numbers (a branch or a lobe picked by u2) draws them four samples per
+    three Philox calls (integrators.cl, RNG_TRIPLES); rand_philox_triple (rng.h) gives the same
+    numbers one sample at a time: the mean of Model.sample's weights at them is clbrdf.albedo's
+    brdf estimate, in double precision, to rounding (also for counts that are not a multiple of
+    the four samples a lane takes)."""
+    from clbrdf.runtime.build import run_functions
+    from clbrdf.runtime.launch import seed_words
+    lo, hi = seed_words(5)
+    src = ("__kernel void f(global const real_t *S, global real_t *A, global real_t *B, "
+           "global real_t *C) { size_t i = get_global_id(0);"
+           f" rand4 u = rand_philox_triple((uint)S[i], 0, 0, {int(lo)}u, {int(hi)}u);"
+           " A[i] = u.u0; B[i] = u.u1; C[i] = u.u2; }")
+    m = clbrdf.Model(name, precision="double", **kw)
+    for n in (1000, 4096):
+        u0, u1, u2 = run_functions(("common.h", "rng.h"), src, "f", [np.arange(n, dtype=float)],
+                                   outputs=3)
+        u = np.stack([u0, u1, u2, np.full(n, 0.5)], -1)
+        wo = np.broadcast_to([0.6, 0.0, 0.8], (n, 3))
+        _, w, _ = m.sample(wo, u=u)
+        r = clbrdf.albedo(m, 0.8, samples=n, seed=5)
+        assert abs(float(np.mean(w)) - float(r.albedo)) < 1e-12, (n, np.mean(w), r.albedo)

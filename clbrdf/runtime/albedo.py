@@ -33,7 +33,8 @@ class AlbedoPlan:
     """How the samples of one point are cut: ``streams`` independent streams (16 scrambles with
     QMC) of ``per_stream`` samples, each in ``bps`` blocks of ``block_len`` (the last may be
     partial). A block holds ``lanes`` streams: 1 with Philox, whose block length is BLOCK or
-    fewer (a multiple of 2 W: a Philox call serves two samples) when a stream is shorter, so
+    fewer (a multiple of 4 W: a Philox call serves two samples of two numbers, three calls four
+    of three) when a stream is shorter, so
     that short streams waste no lanes; W with QMC (albedo_qmc: the lanes are W scrambles of the
     same sample indices), whose block length is a power of two, at most BLOCK. A point has
     ``groups`` = streams / lanes groups of ``bps`` blocks."""
@@ -49,7 +50,8 @@ class AlbedoPlan:
             self.block_len = min(build.BLOCK, 1 << (self.per_stream - 1).bit_length())
         else:
             self.lanes = 1
-            self.block_len = min(build.BLOCK, -(-self.per_stream // (2 * width)) * 2 * width)
+            step = 4 * width        # a Philox call serves two samples, three calls four
+            self.block_len = min(build.BLOCK, -(-self.per_stream // step) * step)
         self.groups = self.streams // self.lanes
         self.bps = -(-self.per_stream // self.block_len)
         self.blocks = self.groups * self.bps
