@@ -55,6 +55,14 @@ FN rand4 clbrdf_random2(uint sample, uint point, uint stream, ulong seed)
     return rand_philox_pair(sample, point, stream, (uint)(seed & 0xFFFFFFFFu), (uint)(seed >> 32));
 }
 
+/* The same for an estimator that uses three numbers per sample (brdf where the sampler's u2
+ * picks a lobe or a branch: kd with a microfacet lobe, ggx_dielectric): four samples per three
+ * Philox calls, keyed as the Python package's albedo estimators key them. */
+FN rand4 clbrdf_random3(uint sample, uint point, uint stream, ulong seed)
+{
+    return rand_philox_triple(sample, point, stream, (uint)(seed & 0xFFFFFFFFu), (uint)(seed >> 32));
+}
+
 #include "clbrdf_models.h"
 
 #if defined(__cplusplus)
