@@ -332,6 +332,9 @@ FN BSample clbrdf_charlie_sample(const clbrdf_charlie_params *p, vec3 wo, rand4 
 #ifndef DI_TRANSPORT
 #define DI_TRANSPORT DI_IMPORTANCE
 #endif
+#ifndef DI_ETA1
+#define DI_ETA1 DI_ETA1_NONE
+#endif
 typedef struct {
     real_t alpha;             /* roughness (isotropic), [0.0001, 10], default 0.5 */
     real_t alpha_x;           /* roughness along the tangent x (anisotropic), [0.0001, 10], default 0.5 */

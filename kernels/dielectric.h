@@ -23,7 +23,9 @@
  * G: MF_MASKING correlated 1 / (1 + Lambda(wo) + Lambda(wi)) for both branches, as Cycles and
  * pbrt-v4; separable G1(wo) G1(wi), as Walter 2007 and Mitsuba 3 (microfacet_smith.h).
  * eta = 1 exactly is no interface: no reflection, and transmission is the delta wi = -wo with
- * weight 1 (eval and pdf 0, the sampler's pdf infinite), as Cycles treats |eta - 1| < 1e-4.
+ * weight 1 (eval and pdf 0, the sampler's pdf infinite), as Cycles treats |eta - 1| < 1e-4; or,
+ * with DI_ETA1_LIMIT, the limit eta -> 1 of the microfacet model, the same delta of weight
+ * G(wo, -wo) / G1(wo) (as OpenPBR's tables hold it).
  *
  * Compile-time configuration:
  *   MF_DIST       ggx | beckmann (microfacet_distributions.h)
@@ -32,6 +34,7 @@
  *   MF_SAMPLER    SAMPLER_VNDF | SAMPLER_NDF
  *   DI_LOBES      DI_BOTH | DI_REFLECTION | DI_TRANSMISSION: the terms f has (E_R + E_T, E_R, E_T)
  *   DI_TRANSPORT  DI_IMPORTANCE | DI_RADIANCE
+ *   DI_ETA1       DI_ETA1_NONE | DI_ETA1_LIMIT: eta = 1 as no interface or as the limit
  *
  * Sampling: h from the (visible) normals of wo, then reflection with probability F(wo.h) and
  * refraction otherwise (DI_BOTH; one branch only otherwise), so that the weight is G / G1(wo)
@@ -51,6 +54,8 @@
 #define DI_TRANSMISSION 2
 #define DI_IMPORTANCE 0
 #define DI_RADIANCE 1
+#define DI_ETA1_NONE 0
+#define DI_ETA1_LIMIT 1
 
 #define dielectric_SAMPLE_DIMS (DI_LOBES == DI_BOTH ? 3 : 2)
 #define dielectric_TRANSMITS 1       /* directions on both sides (integrators.cl) */
@@ -219,10 +224,16 @@ ALWAYS_INLINE BSample di_branch(const DiNormal *n, vec3 wo, realN eta, maskN ref
     b.weight = spec_splat(g * share * sel(di_transport(eta), (realN)1, refl));
     b.pdf = n->ph * sel(n->pt * n->g / (eta * k * k), n->pr / (4 * c), refl);
     maskN up = (wo.z > 0) & (c > 0);
-    /* eta = 1: no interface, the delta wi = -wo of weight 1 */
+    /* eta = 1: the delta wi = -wo (k = 0), of weight 1 (no interface) or G / G1(wo) (the limit
+     * eta -> 1 of the microfacet model, DI_ETA1_LIMIT) */
     maskN none = (eta == 1) & !refl;
     b.wi = select3(b.wi, scale3(wo, (realN)-1), none);
-    b.weight = spec_sel(b.weight, spec_splat((realN)(DI_KEEPS_T ? 1 : 0)), none);
+#if DI_ETA1 == DI_ETA1_LIMIT
+    realN g1 = g;
+#else
+    realN g1 = (realN)1;
+#endif
+    b.weight = spec_sel(b.weight, spec_splat(g1 * (realN)(DI_KEEPS_T ? 1 : 0)), none);
     b.pdf = sel(b.pdf, (realN)INFINITY, none);
     maskN ok = sel((up | none) & (b.wi.z < 0) & (n->g2 > 0) & (n->pt > 0),
                    up & (b.wi.z > 0) & (n->pr > 0), refl);

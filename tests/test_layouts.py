@@ -294,6 +294,48 @@ def test_openpbr_opaque_dielectric_matches_cell_for_cell():
     assert eta[worst[0]] == 1.0, worst
 
 
+def test_openpbr_ideal_dielectric_matches_cell_for_cell():
+    """OpenPBR's 32^3 ideal-dielectric 1 - E (glass: E_R + E_T, ggx_dielectric with separable
+    masking, Sobol points, 2^14 a cell) within the combined noise (ours, and OpenPBR's 7.5e-4 of
+    test_openpbr_tables_are_separable_smith) in every cell but 28: the two ior = 1 rows at
+    mu <= 2/31 and alpha (3/31)^2 .. (13/31)^2, where OpenPBR's two rows differ from each other by
+    up to 0.05. There E is as sensitive to eta as a table can be: at alpha (5/31)^2, mu 1/31,
+    1 - E is 0.30 at eta 1/1.001, 0.12 at eta = 1 (the limit of the microfacet model, the layout's
+    eta_one=limit: OpenPBR keeps the masking at ior 1, 0.94 at alpha 1, mu 1/31, where no
+    interface would be 0) and 0.08 at 1.001, so the unknown ior at which OpenPBR evaluated those
+    rows decides them. The height-correlated form is 80 times further off (rms); the averages
+    agree within 1e-3."""
+    lay = get_layout("openpbr")
+    tabs = {t["name"]: t for t in lay["tables"]}
+    tab = tabs["OpenPBR_IdealDielectricEnergyComplement_Array"]
+    model, fixed = table_config(lay, tab)
+    assert model == "ggx_dielectric" and fixed == {"masking": "separable", "eta_one": "limit"}
+    t = compute_table(model, "g", "1-E", tab["axes"], samples=1 << 14, qmc=True, fixed=fixed,
+                      encoding="unorm16", value_range=[0, 1], check_interpolation=False)
+    ref = _unorm("openpbr_ideal_dielectric_1mE.csv", (32, 32, 32))
+    d = (t.values - ref)[:, :, 1:]
+    z = np.abs(d) / np.hypot(t.stderr[:, :, 1:], 7.5e-4)
+    eta = np.asarray(t.axes[0]["values"])
+    bad = np.argwhere(z > z_bound(d.size) + 1 / 65535 / 7.5e-4)
+    assert len(bad) <= 28 and all(eta[i] == 1.0 and k + 1 <= 2 for i, _, k in bad), bad
+    rms = float(np.sqrt(np.mean(d ** 2)))
+    assert rms < 8e-4, rms
+    # the masking form: height-correlated at two iors, all alpha and mu
+    rows = [4, 23]
+    tc = compute_table(model, "c", "1-E", [{"name": "eta", "values": eta[rows].tolist()}]
+                       + tab["axes"][1:], samples=1 << 14, qmc=True,
+                       fixed={**fixed, "masking": "correlated"}, encoding="unorm16",
+                       value_range=[0, 1], check_interpolation=False)
+    rms_c = float(np.sqrt(np.mean((tc.values - ref[rows])[:, :, 1:] ** 2)))
+    assert rms_c > 50 * rms, (rms_c, rms)
+    ta = tabs["OpenPBR_IdealDielectricAverageEnergyComplement_Array"]
+    tav = compute_table(model, "a", "1-E_avg", ta["axes"], samples=1 << 14, qmc=True,
+                        fixed=fixed, encoding="unorm16", value_range=[0, 1],
+                        check_interpolation=False)
+    da = tav.values - _unorm("openpbr_ideal_dielectric_1mEavg.csv", (32, 32))
+    assert np.abs(da).max() < 1e-3, np.abs(da).max()
+
+
 def _enterprise(name, shape):
     return np.array([float(x) for x in rows(f"enterprise_{name}.csv")]).reshape(shape)
 

@@ -6,7 +6,8 @@ clbrdf.ref.dielectric; docs/models/dielectric.md.
 above: a wo below the surface sees 1/eta. E = E_R + E_T; ``lobes`` keeps one of the terms (the
 reflection or the transmission albedo), ``transport`` picks importance (energy: what renderers'
 glass tables integrate) or radiance (Walter's BTDF, with the 1/eta^2 of radiance crossing the
-interface). eta = 1 is no interface: all light passes straight through (a delta of weight 1).
+interface). eta = 1 is no interface: all light passes straight through (a delta of weight 1);
+``eta_one="limit"`` makes it the limit eta -> 1 of the microfacet model instead (OpenPBR's tables).
 """
 import numpy as np
 
@@ -32,6 +33,8 @@ OPTIONS = (
            ("both", "reflection", "transmission"), "both"),
     Option("transport", "the refracted term's convention: importance (energy) or radiance "
            "(times 1/eta^2)", ("importance", "radiance"), "importance"),
+    Option("eta_one", "eta = 1: no interface (the light passes, weight 1) or the limit eta -> 1 "
+           "of the microfacet model (weight G / G1)", ("no_interface", "limit"), "no_interface"),
 )
 
 
@@ -45,13 +48,15 @@ def configure(dist: str):
         else:
             rough = ("alpha",)
         o = {"masking": opts.get("masking", "correlated"), "sampler": opts.get("sampler", "vndf"),
-             "lobes": opts.get("lobes", "both"), "transport": opts.get("transport", "importance")}
+             "lobes": opts.get("lobes", "both"), "transport": opts.get("transport", "importance"),
+             "eta_one": opts.get("eta_one", "no_interface")}
         lobes = {"both": "DI_BOTH", "reflection": "DI_REFLECTION",
                  "transmission": "DI_TRANSMISSION"}[o["lobes"]]
         defines = (("MF_DIST", dist), ("MF_ANISO", str(int(len(rough) == 2))),
                    ("MF_MASKING", f"MASKING_{o['masking'].upper()}"),
                    ("MF_SAMPLER", f"SAMPLER_{o['sampler'].upper()}"),
-                   ("DI_LOBES", lobes), ("DI_TRANSPORT", f"DI_{o['transport'].upper()}"))
+                   ("DI_LOBES", lobes), ("DI_TRANSPORT", f"DI_{o['transport'].upper()}"),
+                   ("DI_ETA1", "DI_ETA1_LIMIT" if o["eta_one"] == "limit" else "DI_ETA1_NONE"))
         return defines, rough + ("eta",), o
     return fn
 

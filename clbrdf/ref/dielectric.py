@@ -176,7 +176,10 @@ class DielectricReference(Reference):
             mu, eta = -mu, 1 / eta
         wo = direction(mu, phi)
         keep_r, keep_t = self.keeps()
-        if eta == 1:           # no interface: the delta straight through
+        if eta == 1:           # the delta straight through: weight 1, or G(wo, -wo) / G1(wo)
+            if self.options.get("eta_one") == "limit":
+                g = self.G(-wo, wo) * (1 + self.Lambda(wo))
+                return float(keep_t * g), 0.0
             return float(keep_t), 0.0
 
         # reflection, eta >= 1: f over the half-vector map of clbrdf.ref.microfacet, which keeps
