@@ -101,6 +101,10 @@ def white_furnace(tables: dict, *, r=(0.1, 0.25, 0.5, 0.75, 1.0), mu=(0.05, 0.2,
 # ---------------------------------------------------------------------------------------------
 # Glass: a rough dielectric's tables from both sides (docs/models/dielectric.md)
 
+# the axes that give a dielectric's index: eta itself and those mapped onto it (ior_z, ...)
+INDEX_AXES = ("eta",) + tuple(k for k, v in MAPPED.items() if v[0] == "eta")
+
+
 def _eta_of(axis: dict):
     """(values of the axis -> eta, eta -> values) of a table's index-of-refraction axis."""
     name = axis["name"]
@@ -112,15 +116,16 @@ def _eta_of(axis: dict):
 
 def _glass_readers(tables: dict, directional: bool):
     """read(eta, r, [mu]) of E (or E_avg) of a dielectric from the tables whose axes are an
-    index axis (eta, ior_z, inv_ior_z), r (and mu): each eta from the table whose range holds it
+    index axis (``INDEX_AXES``), r (and mu): each eta from the table whose range holds it
     (Cycles: ior_z for eta >= 1, inv_ior_z for eta < 1). None if there is none."""
     label = "E" if directional else "E_avg"
     found = []
     for t in tables.values():
         names = set(t.axis_names)
-        idx = [a for a in t.axes if a["name"] in ("eta", "ior_z", "inv_ior_z")]
+        idx = [a for a in t.axes if a["name"] in INDEX_AXES]
+        lobes = t.meta.get("computed", {}).get("options", {}).get("lobes", "both")
         if len(idx) != 1 or names != {idx[0]["name"], "r"} | ({"mu"} if directional else set()) \
-                or not _reads(t, label):
+                or not _reads(t, label) or lobes != "both":     # E_R alone: not the glass's E
             continue
         fwd, inv = _eta_of(idx[0])
         ev = fwd(np.clip(np.asarray(idx[0]["values"], float), idx[0].get("min", -np.inf),
@@ -162,7 +167,7 @@ def glass_furnace(tables: dict, *, ior=(1.2, 1.5, 2.0), r=(0.25, 0.5, 1.0), mu=(
                   samples: int = 1 << 20, seed: int = 7, qmc: bool = True, **kw) -> dict:
     """The white furnace of a rough dielectric's energy compensation with its tables from both
     sides (E over (index, mu, r) and E_avg over (index, r): Cycles' four glass tables, or any
-    with axes eta, ior_z or inv_ior_z): E_ss = E_R + E_T of ``ggx_dielectric`` (the tables'
+    with an index axis of ``INDEX_AXES``: eta, ior_z, inv_ior_z, inv_eta): E_ss = E_R + E_T of ``ggx_dielectric`` (the tables'
     model and options) estimated directly at eta = ior (entering) and 1/ior (exiting), and
     after Turquin's scaling, E_ss / E_tab, and Kulla-Conty's lobes, E_ss + (1 - E_tab(mu)) (a_R
     J(eta) + a_T J(1/eta)), J(e) = 2 int (1 - E_tab(e, x)) x dx / (1 - E_avg_tab(e)), the shares
@@ -173,10 +178,11 @@ def glass_furnace(tables: dict, *, ior=(1.2, 1.5, 2.0), r=(0.25, 0.5, 1.0), mu=(
     tables = flat(tables)
     read, read_avg = _glass_readers(tables, True), _glass_readers(tables, False)
     if read is None or read_avg is None:
-        raise ParameterError("glass_furnace needs a dielectric's E over (eta, ior_z or inv_ior_z; "
+        raise ParameterError("glass_furnace needs a dielectric's E over (an index axis: eta, ior_z, "
+                             "inv_ior_z or inv_eta; "
                              "mu; r) and E_avg over (that axis; r), from both sides")
     t0 = next(t for t in tables.values() if {"mu", "r"} <= set(t.axis_names)
-              and set(t.axis_names) & {"eta", "ior_z", "inv_ior_z"})
+              and set(t.axis_names) & set(INDEX_AXES))
     comp = t0.meta.get("computed", {})
     model = comp.get("model", "ggx_dielectric")
     fixed = dict(comp.get("options", {}))

@@ -18,7 +18,9 @@ sqrt(alpha) axis), ``theta`` is the polar angle of wo in radians with mu = cos(t
 theta-linear axis), ``ior_z`` and ``inv_ior_z`` the index of refraction's axis of Cycles' glass
 tables, z = F0^(1/4) = sqrt((ior - 1)/(ior + 1)), with eta = ior = (1 + z^2)/(1 - z^2)
 (entering, ``ior_z``) or eta = 1/ior (exiting, ``inv_ior_z``; a wo above a surface of relative
-index 1/ior is a wo below one of ior).
+index 1/ior is a wo below one of ior); ``inv_eta`` an index of refraction given by its
+reciprocal, eta = 1 / v (the exiting tables of UE5 and MoonRay, indexed by the ior of the glass
+that wo is inside).
 """
 from __future__ import annotations
 
@@ -40,6 +42,7 @@ MAPPED = {
               lambda e: np.sqrt((e - 1) / (e + 1))),
     "inv_ior_z": ("eta", "eta = (1 - z^2) / (1 + z^2)", lambda z: (1 - z * z) / (1 + z * z),
                   lambda e: np.sqrt((1 - e) / (1 + e))),
+    "inv_eta": ("eta", "eta = 1 / v", lambda v: 1 / v, lambda e: 1 / e),
 }
 
 FORM = ("expected NAME=START:STOP:COUNT[:lin|log|sqrt][:nodes|centres][:min=LO][:max=HI], "

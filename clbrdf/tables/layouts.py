@@ -237,8 +237,10 @@ def _fresnel_table(model, name, qs, axl, fixed, value_range, encoding, layout, k
 def layout_table(lay: dict, tab: dict, *, layout: str | None = None, **kw):
     """One table of a layout. Its quantity is a name, a list of names (channels of one
     computation), or a list whose entries may be dicts {"quantity", "label", "model", "fixed",
-    "axes", "estimator"}: a channel of another model on the same grid (Filament's cloth channel is the
-    Charlie sheen beside GGX's B and E), computed apart and interleaved."""
+    "axes", "estimator"}: a channel of another model or on other axes over the same grid
+    (Filament's cloth channel is the Charlie sheen beside GGX's B and E; UE5's glass table holds E
+    at eta and at 1/eta), computed apart and interleaved. A channel of the table's own model
+    keeps the table's options."""
     model, fixed = table_config(lay, tab)
     qs = tab["quantity"] if isinstance(tab["quantity"], list) else [tab["quantity"]]
     chosen = kw.pop("estimator", None)      # the caller's, for every channel; None: the layout's
@@ -252,8 +254,10 @@ def layout_table(lay: dict, tab: dict, *, layout: str | None = None, **kw):
     for q in qs:
         if isinstance(q, dict):
             own = dict(common, **{k: q[k] for k in ("estimator",) if k in q and chosen is None})
-            t = compute_table(q.get("model", model), tab["name"], q["quantity"],
-                              q.get("axes", tab["axes"]), fixed=q.get("fixed", {}), **own)
+            qm = q.get("model", model)     # the table's options where it is the same model
+            t = compute_table(qm, tab["name"], q["quantity"], q.get("axes", tab["axes"]),
+                              fixed={**(fixed if qm == model else {}), **q.get("fixed", {})},
+                              **own)
             parts.append(([q.get("label", q["quantity"])], t))
     if len(parts) == 1 and plain:
         return parts[0][1]
