@@ -8,8 +8,10 @@ tables up to 1024 cells, on every 4th node of each axis of the larger ones.
 
 Times are wall and CPU seconds of make_layout without the interpolation check, median of
 --rounds runs (the reference once). The error includes the stored encoding's rounding.
+``--match`` adds a row per layout: the least power of two of samples per cell at which brdf +
+qmc reaches the max error of brdf (Philox) at the published count, and its time.
 
-    python benchmarks/bench_layouts.py [--write] [--rounds 1] [--only cycles threejs]
+    python benchmarks/bench_layouts.py [--write] [--rounds 1] [--only cycles threejs] [--match]
 """
 import argparse
 import datetime as _dt
@@ -32,8 +34,7 @@ def subgrid(t):
     axes = []
     for a, i in zip(t.axes, idx):
         ax = {"name": a["name"], "values": np.asarray(a["values"])[i].tolist()}
-        if a.get("min") is not None:
-            ax["min"] = a["min"]
+        ax.update({k: a[k] for k in ("min", "max") if a.get(k) is not None})
         axes.append(ax)
     return axes, idx
 
@@ -43,6 +44,8 @@ def main():
     ap.add_argument("--rounds", type=int, default=1)
     ap.add_argument("--write", action="store_true")
     ap.add_argument("--only", nargs="*")
+    ap.add_argument("--match", action="store_true",
+                    help="also the least 2^k samples at which brdf + qmc reaches brdf's max error")
     a = ap.parse_args()
     import clbrdf
     from clbrdf.tables.axes import parse_axis
@@ -62,10 +65,13 @@ def main():
         for tab in lay["tables"]:
             t = runs["brdf"][2][tab["name"]]
             axes, idx = subgrid(t)
+            def clamps(x):          # a channel's own axis: its min= and max=
+                x = parse_axis(x) if isinstance(x, str) else x
+                return {k: x[k] for k in ("min", "max") if x.get(k) is not None}
             sub = dict(tab, axes=axes, quantity=[
-                dict(q, axes=[dict(a, **({"min": m} if m is not None else {}))
-                              for a, m in zip(axes, [parse_axis(x).get("min") if isinstance(
-                                  x, str) else x.get("min") for x in q["axes"]])])
+                dict(q, axes=[dict(name=x["name"] if isinstance(x, dict) else
+                                   parse_axis(x)["name"], values=a["values"], **clamps(x))
+                              for a, x in zip(axes, q["axes"])])
                 if isinstance(q, dict) and "axes" in q else q
                 for q in (tab["quantity"] if isinstance(tab["quantity"], list)
                           else [tab["quantity"]])])
@@ -73,17 +79,30 @@ def main():
                              max_evals=REF_MAX_EVALS, check_interpolation=False)
             refs[tab["name"]] = (r.values, np.ix_(*idx))
         t_ref = time.perf_counter() - t_ref
-        for label, (w, c, tables) in runs.items():
-            errs, sds = [], []
-            for tname, (ref, ix) in refs.items():
-                v = tables[tname].values[ix]
-                errs.append(float(np.max(np.abs(v - ref))))
-                sds.append(float(np.max(tables[tname].stderr)))
+        def score(tables):
+            errs = [float(np.max(np.abs(tables[k].values[ix] - ref)))
+                    for k, (ref, ix) in refs.items()]
+            return max(errs), max(float(np.max(t.stderr)) for t in tables.values())
+
+        def report(label, n_, w, c, tables):
+            err, sd = score(tables)
             cells = sum(int(np.prod(t.shape)) * len(t.quantity) for t in tables.values())
-            rows.append((name, label, n, cells, w, c, max(errs), max(sds)))
-            print(f"{name:15s} {label:11s} {n:>9d} samples  {cells:6d} values  {w:7.2f} s wall "
-                  f"{c:7.2f} s CPU  max error {max(errs):.2e}  max stderr {max(sds):.1e}",
-                  flush=True)
+            rows.append((name, label, n_, cells, w, c, err, sd))
+            print(f"{name:15s} {label:11s} {n_:>9d} samples  {cells:6d} values  {w:7.2f} s wall "
+                  f"{c:7.2f} s CPU  max error {err:.2e}  max stderr {sd:.1e}", flush=True)
+            return err
+        target = None
+        for label, (w, c, tables) in runs.items():
+            e = report(label, n, w, c, tables)
+            target = e if label == "brdf" else target
+        k = 8
+        while a.match and (1 << k) < n:     # the least 2^k at which qmc reaches brdf's error
+            w, c, tables = timed(lambda: make_layout(name, samples=1 << k, qmc=True,
+                                                     check_interpolation=False), a.rounds)
+            if score(tables)[0] <= target:
+                report("brdf + qmc, same max error as brdf", 1 << k, w, c, tables)
+                break
+            k += 1
         print(f"{'':15s} reference {t_ref:.0f} s", flush=True)
         if a.write:
             write(rows, layouts, clbrdf)

@@ -5,7 +5,9 @@
 #                                    with clbrdf installed; the headers are its `clbrdf --include`)
 #
 # c99_albedo (gcc), opencl_albedo (gcc and the OpenCL ICD loader: Debian ocl-icd-opencl-dev),
-# cuda_albedo (nvcc; run only where a CUDA device answers), energy_compensation (gcc and a
+# cuda_albedo (nvcc; run only where a CUDA device answers); c99_albedo and cuda_albedo also
+# sample rough glass (ggx_dielectric, from both sides) against `clbrdf albedo ggx_dielectric`;
+# energy_compensation (gcc and a
 # generated Cycles-layout header). The albedo examples draw the same samples as
 # `clbrdf albedo ggx --estimator brdf --width 1` (clbrdf_random2): they must agree with it to
 # TOL relative (summation order; the estimate's own standard error is 3.6e-4 relative), and the
@@ -22,8 +24,13 @@ trap 'rm -rf "$OUT"' EXIT
 WARN=(-Wall -Wextra -Werror)
 fail=0
 
-python_albedo() {
-    "$PY" -m clbrdf albedo ggx -p alpha=$ALPHA --mu $MU --estimator brdf --samples $N \
+python_albedo() {    # [mu eta]: rough glass (ggx_dielectric) at that mu and eta
+    if [ $# -gt 0 ]; then
+        set -- ggx_dielectric -p eta=$2 --mu=$1
+    else
+        set -- ggx --mu=$MU
+    fi
+    "$PY" -m clbrdf albedo "$1" -p alpha=$ALPHA "${@:2}" --estimator brdf --samples $N \
         --seed $SEED --width 1 --json | "$PY" -c 'import json, sys; print(json.load(sys.stdin)["albedo"][0])'
 }
 
@@ -37,11 +44,18 @@ compare() {     # name, value, reference, tolerance (relative)
 }
 
 ref=$(python_albedo)
-echo "GGX alpha $ALPHA, mu $MU, $N samples, seed $SEED (python: clbrdf albedo, brdf, Philox, width 1)"
+ETA=1.5
+glass_out=$(python_albedo $MU $ETA) glass_in=$(python_albedo -$MU $ETA)
+echo "GGX alpha $ALPHA, mu $MU, $N samples, seed $SEED (python: clbrdf albedo, brdf, Philox, width 1);"
+echo "glass (ggx_dielectric) eta $ETA from outside (mu $MU) and inside (mu -$MU)"
 
 if command -v gcc >/dev/null; then
     gcc -std=c99 "${WARN[@]}" -pedantic -O2 -I "$INC" "$ROOT"/examples/c99_albedo.c -lm -o "$OUT/c99_albedo"
     compare c99_albedo "$("$OUT/c99_albedo" $ALPHA $MU $N $SEED | cut -d' ' -f1)" "$ref" $TOL
+    compare "c99_albedo glass" "$("$OUT/c99_albedo" $ALPHA $MU $N $SEED $ETA | cut -d' ' -f1)" \
+        "$glass_out" $TOL
+    compare "c99_albedo glass in" "$("$OUT/c99_albedo" $ALPHA -$MU $N $SEED $ETA | cut -d' ' -f1)" \
+        "$glass_in" $TOL
 else
     echo "c99_albedo             skipped: no gcc"
 fi
@@ -60,6 +74,10 @@ if command -v nvcc >/dev/null; then
     if line=$("$OUT/cuda_albedo" $ALPHA $MU $N $SEED 2>/dev/null); then
         compare "cuda_albedo" "${line%% *}" "$ref" $TOL
         echo "                       (device: ${line#* })"
+        line=$("$OUT/cuda_albedo" $ALPHA $MU $N $SEED $ETA)
+        compare "cuda_albedo glass" "${line%% *}" "$glass_out" $TOL
+        line=$("$OUT/cuda_albedo" $ALPHA -$MU $N $SEED $ETA)
+        compare "cuda_albedo glass in" "${line%% *}" "$glass_in" $TOL
     else
         echo "cuda_albedo            built; not run: no CUDA device"
     fi
