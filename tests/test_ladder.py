@@ -3,6 +3,7 @@ configuration offers, their errors against independent float64 references, the c
 import json
 
 import numpy as np
+import clbrdf
 import pytest
 
 from clbrdf.studies import ladder as L
@@ -178,3 +179,49 @@ def test_ladder_chart_labels_do_not_overprint():
         assert front and all(not (o["evals_per_s"] > f["evals_per_s"] and
                                   o["value_error"] < f["value_error"])
                              for f in front for o in mine)
+
+
+def test_a_reflection_only_variant_of_glass_is_scored_over_the_whole_sphere():
+    """The interface rung offers glass's reflection lobe alone (ggx with the dielectric Fresnel
+    term): above the surface it is the dielectric's f to rounding, so over upper pairs alone
+    (the pairs of a BRDF) it would look exact; over the whole sphere its value error is 1 (f = 0
+    for a refracted wi) and its E error is max E_T / E over the ladder's mu (E_T by the
+    dielectric's own lobes=transmission quadrature), where the full model's masking variant is
+    measured the same way."""
+    kw = L.configs()["ggx_dielectric"]
+    name, full = L.full_config("ggx_dielectric", **kw)
+    vs = [v for v in L.variants(name, full, precisions=("double",))
+          if v.label in ("full", "reflection only: ggx")]
+    assert [v.label for v in vs] == ["full", "reflection only: ggx"]
+    assert vs[1].name == "ggx" and vs[1].kw["fresnel"] == "dielectric"
+    L.measure_errors(vs, "value")
+    assert vs[1].error == 1.0
+    wo, wi = L.pairs()
+    f_glass = np.asarray(clbrdf.Model(name, precision="double", **kw).eval(wo, wi), float)
+    f_refl = np.asarray(clbrdf.Model("ggx", precision="double", **vs[1].kw).eval(wo, wi), float)
+    np.testing.assert_allclose(f_refl, f_glass, rtol=1e-10, atol=0)
+    L.measure_errors(vs, "albedo")
+    mus = np.asarray(L.ALBEDO_MUS)
+    e = clbrdf.albedo(clbrdf.Model(name, precision="double", **kw), mus, estimator="quadrature",
+                      tol=1e-9).albedo
+    et = clbrdf.albedo(clbrdf.Model(name, precision="double", lobes="transmission", **kw), mus,
+                       estimator="quadrature", tol=1e-9).albedo
+    assert abs(vs[1].error - np.max(et / e)) < 1e-6, (vs[1].error, et / e)
+
+
+def test_a_partial_chart_run_keeps_the_other_models_rows(tmp_path):
+    """``chart(models)`` of some models keeps the rows ladder.csv holds for the others (the
+    whole ladder takes half an hour), and the README says which models this run measured."""
+    import csv
+    from pathlib import Path
+    shipped = Path(__file__).parent.parent / "docs/ladder/ladder.csv"
+    (tmp_path / "ladder.csv").write_text(shipped.read_text())
+    kept = L._kept_rows(tmp_path / "ladder.csv", ["ggx"])
+    models = {r["model"] for r in kept}
+    assert "ggx" not in models and {"beckmann", "gtr"} <= models
+    with open(shipped, newline="") as f:
+        want = [r for r in csv.DictReader(f) if r["model"] != "ggx"]
+    assert [r["label"] for r in kept] == [r["label"] for r in want]
+    assert all(isinstance(r["evals_per_s"], float) for r in kept)
+    text = L.summary(kept, "clbrdf ladder --models beckmann", 1.0, ["beckmann"])
+    assert "this run measured beckmann" in text and "## gtr" in text

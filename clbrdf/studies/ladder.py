@@ -15,13 +15,18 @@ combinations of them, in single and double precision:
 - ``diffraction``: Holzschuch & Pacanowski's diffraction lobe (kw > 0) dropped;
 - ``analytic``: a tabulated Smith Lambda replaced by the analytic one of the distribution it
   generalises (GTR -> GGX, exponential power -> Beckmann, same alpha);
+- ``interface``: a rough dielectric (reflection and refraction) -> its reflection lobe alone, the
+  BRDF of the same distribution with the dielectric Fresnel term (``ggx_dielectric`` -> ``ggx``
+  with ``fresnel="dielectric"``, same alpha, eta and masking): f = 0 for every wi below the
+  surface, E = E_R;
 - ``precision``: double -> single;
 - the width (lanes per work-item), in the charted ladder only: the full configuration in single
   precision at widths 1, 4 and 8 besides the device's default (it changes the speed, not the
   model).
 
 Each candidate's error is measured against the full configuration in double precision: for
-``metric="value"`` the max relative error of f over a grid of direction pairs (``pairs()``;
+``metric="value"`` the max relative error of f over a grid of direction pairs (``pairs()``, wi
+on both sides of the surface where the full model transmits;
 relative to max(f, 1e-12 max f): every value above the underflow of the tails counts; a floor
 of 1e-3 max f hid a dropped Lambertian term of 0.03 beside a sharp lobe whose grazing mirror
 value is 8e4, f off by 83 % to 96 %), for
@@ -39,6 +44,7 @@ with the evidence; ``chart(models, out)`` writes the ladder of each model (at
 """
 from __future__ import annotations
 
+import csv
 import io
 import json
 import math
@@ -188,10 +194,20 @@ def _analytic(name, kw):
     return [(f"model={to}", to, _drop(kw, *drop))]
 
 
+def _interface(name, kw):
+    if not get_spec(name).transmits or not name.endswith("_dielectric") or \
+            kw.get("lobes", "both") == "transmission":
+        return []
+    to = name.removesuffix("_dielectric")
+    keep = {k: v for k, v in kw.items() if k in ("alpha", "alpha_x", "alpha_y", "eta",
+                                                 "masking", "sampler", "channels")}
+    return [(f"reflection only: {to}", to, {**keep, "fresnel": "dielectric"})]
+
+
 RUNGS = (("masking", _masking), ("fresnel", _fresnel), ("diffuse", _diffuse),
          ("lobes", _lobes), ("directional", _directional), ("spectral", _spectral),
          ("material", _material), ("diffraction", _diffraction),
-         ("analytic", _analytic))
+         ("analytic", _analytic), ("interface", _interface))
 
 
 def variants(name: str, kw: dict, precisions=("double", "single")) -> list[Variant]:
@@ -223,13 +239,29 @@ def _dir(mu, phi):
     return np.stack([s * np.cos(phi), s * np.sin(phi), mu], -1)
 
 
-def pairs():
-    """(wo, wi): every grid direction against every other, plus the mirror pairs."""
+def pairs(sphere: bool = False):
+    """(wo, wi): every grid direction against every other, plus the mirror pairs; with
+    ``sphere`` (a model that transmits) also every wo against every wi mirrored below the
+    surface, and the straight-through pairs wi = -wo."""
     M, P = np.meshgrid(PAIR_MUS, PAIR_PHIS, indexing="ij")
     d = _dir(M.ravel(), P.ravel())
     wo = np.concatenate([np.repeat(d, len(d), 0), d])
     wi = np.concatenate([np.tile(d, (len(d), 1)), d * np.array([-1.0, -1.0, 1.0])])
+    if sphere:
+        wo = np.concatenate([wo, wo])
+        wi = np.concatenate([wi, wi * np.array([1.0, 1.0, -1.0])])
     return wo, wi
+
+
+def _eval(m, wo, wi):
+    """f at the pairs; a model that does not transmit is 0 for a wi below the surface (its
+    eval refuses such directions)."""
+    if m.spec.transmits:
+        return np.asarray(m.eval(wo, wi), float)
+    up = wi[:, 2] > 0
+    f = np.zeros((len(wo),) + np.shape(m.eval(wo[:1], wi[:1]))[1:])
+    f[up] = np.asarray(m.eval(wo[up], wi[up]), float)
+    return f
 
 
 def _model(v: Variant, device=None):
@@ -254,12 +286,12 @@ def _check_metric(metric):
 def measure_errors(vs: list[Variant], metric: str, device=None) -> list[Variant]:
     """Fill in each variant's error against vs[0], the full configuration in double."""
     _check_metric(metric)
-    wo, wi = pairs()
+    wo, wi = pairs(get_spec(vs[0].name).transmits)
     ref = None
     for v in vs:
         m = _model(v, device)
         if metric == "value":
-            f = np.asarray(m.eval(wo, wi), float)
+            f = _eval(m, wo, wi)
             ref = f if ref is None else ref
             floor = REL_FLOOR * np.max(np.abs(ref))
             v.error = float(np.max(np.abs(f - ref) / np.maximum(np.abs(ref), floor)))
@@ -455,12 +487,14 @@ def plot(rows, fileobj, name, kw):
 def chart(models=None, out="ladder", *, device=None, command="clbrdf.studies.ladder.chart()",
           progress=None) -> Path:
     """Measure the ladder of each model at its configuration (``configs()``) and write ladder.csv, MODEL.png and
-    README.md to ``out`` (staged: a kill leaves the old files or the new ones)."""
+    README.md to ``out`` (staged: a kill leaves the old files or the new ones). The rows of
+    models not measured this time that ``out/ladder.csv`` already holds stay (their charts
+    too), in ``configs()`` order."""
     names = list(models or configs())
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    all_rows, charts = [], {}
+    all_rows, charts = _kept_rows(out / "ladder.csv", names), {}
     for name in names:
         kw = configs().get(name, {})
         rows = ladder(name, kw, device)
@@ -469,15 +503,34 @@ def chart(models=None, out="ladder", *, device=None, command="clbrdf.studies.lad
         all_rows += rows
         if progress:
             progress(name)
+    order = list(configs())
+    all_rows.sort(key=lambda r: order.index(r["model"]) if r["model"] in order else len(order))
     write_together({**{out / f"{n}.png": png.getvalue() for n, png in charts.items()},
                     out / "ladder.csv": csv_text(all_rows, FIELDS),
-                    out / "README.md": summary(all_rows, command, time.perf_counter() - t0)})
+                    out / "README.md": summary(all_rows, command, time.perf_counter() - t0,
+                                               names)})
     return out
 
 
-def summary(rows, command, seconds) -> str:
+def _kept_rows(path: Path, names) -> list:
+    """The rows of ``path`` (a ladder.csv) of models other than ``names``, numbers as floats."""
+    if not path.exists():
+        return []
+    with open(path, newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r["model"] not in names]
+    for r in rows:
+        for k in ("value_error", "albedo_error", "evals_per_s", "samples_per_s"):
+            r[k] = float(r[k])
+    return rows
+
+
+def summary(rows, command, seconds, measured=None) -> str:
+    every = list(dict.fromkeys(r["model"] for r in rows))
+    which = "" if measured is None or set(measured) >= set(every) else \
+        f" (this run measured {', '.join(measured)}; the other models' rows are an earlier run's)"
     lines = ["# The ladder: cheaper variants, their cost and their error", "",
-             f"Generated by `{command}` in {seconds:.0f} s on one device (its default width). "
+             f"Generated by `{command}` in {seconds:.0f} s{which} on one device (its default "
+             f"width). "
              "For each model's configuration (each description's `Facts.ladder`), every combination "
              "of cheaper rungs (`clbrdf/studies/ladder.py`) in double and single precision: the max "
              "relative error of f over direction pairs and of E(mu) against the full "
