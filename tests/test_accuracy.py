@@ -4,6 +4,7 @@ the fastest estimator per target."""
 import csv
 
 import numpy as np
+import pytest
 
 from clbrdf.studies import accuracy
 from cliutil import run_inprocess
@@ -66,3 +67,41 @@ def test_single_precision_chart_has_no_empty_panels():
         fig = A.figure([r for r in ggx if r["precision"] in precs], "ggx")
         assert len(fig.axes) == panels
         assert all(ax.lines for ax in fig.axes), precs
+
+
+def test_the_points_of_a_model_that_transmits_are_on_both_sides():
+    assert accuracy.mus("ggx_dielectric") == accuracy.MUS + tuple(-m for m in accuracy.MUS)
+    assert accuracy.mus("ggx") == accuracy.MUS
+    rows = [{"model": m, "estimator": "brdf", "rng": "sobol", "precision": "single",
+             "samples": 32.0, "seconds": 1.0, "max": 1e-3, "rms": 1e-3} for m in ("ggx", "lambert")]
+    text = accuracy.summary(rows, "clbrdf accuracy lambert", 1.0, ["lambert"])
+    assert "this run measured lambert" in text and "| ggx | single |" in text
+    assert "this run measured" not in accuracy.summary(rows, "c", 1.0, ["ggx", "lambert"])
+
+
+@pytest.mark.slow
+def test_a_model_that_transmits_is_measured_from_both_sides_and_runs_merge(tmp_path,
+                                                                            monkeypatch):
+    """For rough glass the points include wo inside (mu < 0), against the float64 reference
+    from inside; a later run of another model keeps these rows and says which it measured.
+    (One mu and the defaults only: the float64 reference of the sharp glass lobe, alpha 0.01,
+    takes 190 s for the chart's 20 points.)"""
+    assert accuracy.mus("ggx_dielectric") == accuracy.MUS + tuple(-m for m in accuracy.MUS)
+    assert accuracy.mus("ggx") == accuracy.MUS
+    monkeypatch.setattr(accuracy, "MUS", (0.5,))
+    monkeypatch.setattr(accuracy, "cases", lambda name: [("defaults", {})])
+    r = run_inprocess("accuracy", "ggx_dielectric", "--out", tmp_path, "--max-log2-samples", 7,
+                      "--precision", "single", "--quiet")
+    assert r.returncode == 0, r.stderr
+    rows = list(csv.DictReader(open(tmp_path / "accuracy.csv")))
+    assert {int(x["points"]) for x in rows} == {2}                  # mu = 0.5 and -0.5
+    q = [float(x["max"]) for x in rows if x["estimator"] == "quadrature"]
+    assert min(q) < 1e-5                  # the inside points against the reference from inside
+    r = run_inprocess("accuracy", "lambert", "--out", tmp_path, "--max-log2-samples", 7,
+                      "--precision", "single", "--quiet")
+    assert r.returncode == 0, r.stderr
+    again = list(csv.DictReader(open(tmp_path / "accuracy.csv")))
+    assert [x for x in again if x["model"] == "ggx_dielectric"] == rows
+    assert {x["model"] for x in again} == {"ggx_dielectric", "lambert"}
+    text = (tmp_path / "README.md").read_text()
+    assert "this run measured lambert" in text and "| ggx_dielectric | single |" in text

@@ -44,7 +44,6 @@ with the evidence; ``chart(models, out)`` writes the ladder of each model (at
 """
 from __future__ import annotations
 
-import csv
 import io
 import json
 import math
@@ -59,7 +58,7 @@ from ..api.albedo import albedo
 from ..api.model import Model
 from ..models import MODELS, get_spec
 from ..models.spec import ParameterError
-from ..tables.outputs import csv_text, write_together
+from ..tables.outputs import csv_rows, csv_text, write_together
 
 ALBEDO_MUS = (0.02, 0.1, 0.25, 0.5, 0.75, 1.0)
 PAIR_MUS = (0.02, 0.1, 0.3, 0.5, 0.7, 0.9, 1.0)
@@ -494,7 +493,8 @@ def chart(models=None, out="ladder", *, device=None, command="clbrdf.studies.lad
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    all_rows, charts = _kept_rows(out / "ladder.csv", names), {}
+    all_rows = csv_rows(out / "ladder.csv", FIELDS[4:], without=names)
+    charts = {}
     for name in names:
         kw = configs().get(name, {})
         rows = ladder(name, kw, device)
@@ -510,18 +510,6 @@ def chart(models=None, out="ladder", *, device=None, command="clbrdf.studies.lad
                     out / "README.md": summary(all_rows, command, time.perf_counter() - t0,
                                                names)})
     return out
-
-
-def _kept_rows(path: Path, names) -> list:
-    """The rows of ``path`` (a ladder.csv) of models other than ``names``, numbers as floats."""
-    if not path.exists():
-        return []
-    with open(path, newline="") as f:
-        rows = [r for r in csv.DictReader(f) if r["model"] not in names]
-    for r in rows:
-        for k in ("value_error", "albedo_error", "evals_per_s", "samples_per_s"):
-            r[k] = float(r[k])
-    return rows
 
 
 def summary(rows, command, seconds, measured=None) -> str:

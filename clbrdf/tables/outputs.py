@@ -143,6 +143,20 @@ def csv_text(rows, fields) -> str:
     return buf.getvalue()
 
 
+def csv_rows(path, floats=(), without=None) -> list:
+    """The rows (dicts) of a CSV file written by ``csv_text``, the ``floats`` columns as
+    numbers; ``without``: leave out the rows whose "model" is in it. [] if there is no file."""
+    path = Path(path)
+    if not path.exists():
+        return []
+    with open(path, newline="") as f:
+        rows = [r for r in csv.DictReader(f) if without is None or r.get("model") not in without]
+    for r in rows:
+        for k in floats:
+            r[k] = float(r[k])
+    return rows
+
+
 def write_together(files: dict) -> None:
     """Write {path: bytes or str} so that a kill at any moment leaves all the old files or all
     the new ones (staged temporary files, moved into place together)."""
