@@ -71,6 +71,34 @@ def test_verdicts_on_clear_cases(tmp_path):
     assert list(s["verdict"][:]) == [sj.GAINS, sj.GAINS]
 
 
+
+def test_glass_is_swept_from_both_sides_against_its_own_energy_bound(tmp_path):
+    """A dielectric's sweep takes wo on both sides (the Gauss nodes, then the same mirrored
+    below the surface with weight 0 in E_avg, which stays the average from above) and judges E
+    against the model's energy bound: in radiance transport the refracted radiance grows by
+    (n_o / n_i)^2 entering a denser medium, E up to 4 at eta = 0.5 from above and 2.25 from
+    inside glass of eta 1.5, which conserve; against 1 they were called gains (4 of 4 here). In
+    importance transport E <= 1 from both sides."""
+    axes = {"eta": [0.5, 1.5], "alpha": [0.1, 0.5]}
+    s = sweep("ggx_dielectric", tmp_path / "r.zarr", axes=axes, transport="radiance",
+              samples=4096)
+    mu = np.asarray(s.directions["mu"])
+    assert len(mu) == 2 * sj.DEFAULT_MU_NODES and np.array_equal(mu[32:], -mu[:32])
+    assert np.all(np.asarray(s.directions["weight"])[32:] == 0)
+    E = s["E"][:]
+    assert E.max() > 2 and list(s["verdict"][:]) == [sj.CONSERVES] * 4
+    eta = s["params/eta"][:][:, None]
+    bound = np.maximum(1, np.where(mu > 0, 1 / eta, eta) ** 2)
+    assert np.all(E <= bound * (1 + 1e-3))
+    m = clbrdf.Model("ggx_dielectric", eta=eta, alpha=s["params/alpha"][:][:, None])
+    avg = clbrdf.albedo(m, mu[None, :], samples=4096).albedo[:, :32]     # the sweep's keys
+    t = sweep("ggx_dielectric", tmp_path / "i.zarr", axes=axes, samples=4096)
+    assert list(t["verdict"][:]) == [sj.CONSERVES] * 4
+    one = sweep("ggx_dielectric", tmp_path / "1.zarr", axes=axes, samples=4096, max_samples=4096)
+    assert np.allclose(one["E_avg"][:], (np.asarray(t.directions["weight"])[:32] * avg).sum(1),
+                       rtol=1e-6)
+    assert np.all(t["E"][:] <= 1 + 5 * t["E_stderr"][:])
+
 def test_error_rate_of_verdicts(tmp_path):
     """Lambert with uniform sampling (weight 2 kd mu: noisy) at kd just under and at 1: the true
     max E is kd <= 1, so every 'gains' is wrong. Per point P(wrong) <= error_rate = 0.2; the count

@@ -60,18 +60,25 @@ def _check_axis(ax: dict, spec, random: bool) -> dict:
     return ax
 
 
-def gauss_directions(n_mu: int, n_phi: int = 1) -> dict:
+def gauss_directions(n_mu: int, n_phi: int = 1, below: bool = False) -> dict:
     """Gauss-Legendre nodes in mu times n_phi equally spaced azimuths, with the weights of
-    E_avg = (1/pi) int E mu dwo (clbrdf.api.albedo._avg_rule): mu-major order."""
+    E_avg = (1/pi) int E mu dwo (clbrdf.api.albedo._avg_rule): mu-major order. ``below`` (a
+    model that transmits): the same directions mirrored below the surface follow (wo inside),
+    with weight 0: E_avg stays the average from above."""
     mu, phi, c = _avg_rule(n_mu, n_phi)
     M, P = np.meshgrid(mu, phi, indexing="ij")
-    return {"spec": f"gauss:{n_mu}" + (f"x{n_phi}" if n_phi > 1 else ""),
-            "mu": M.ravel().tolist(), "phi": P.ravel().tolist(), "weight": c.ravel().tolist()}
+    out = {"spec": f"gauss:{n_mu}" + (f"x{n_phi}" if n_phi > 1 else ""),
+           "mu": M.ravel().tolist(), "phi": P.ravel().tolist(), "weight": c.ravel().tolist()}
+    if below:
+        out = {k: v + [-x for x in v] if k == "mu" else v + v if k == "phi" else
+               v + [0.0] * len(v) if k == "weight" else v for k, v in out.items()}
+    return out
 
 
-def parse_directions(text: str, precision: str) -> dict:
-    """``gauss:N`` / ``gauss:NxM`` (N Gauss-Legendre mu nodes x M azimuths: E_avg by quadrature)
-    or ``mu=v1,v2,...[;phi=p1,p2,...]`` (every mu with every phi; no E_avg)."""
+def parse_directions(text: str, precision: str, below: bool = False) -> dict:
+    """``gauss:N`` / ``gauss:NxM`` (N Gauss-Legendre mu nodes x M azimuths: E_avg by quadrature;
+    ``below``: and the same below the surface) or ``mu=v1,v2,...[;phi=p1,p2,...]`` (every mu
+    with every phi; no E_avg; mu < 0 with ``below``)."""
     t = text.strip()
     form = "expected gauss:N, gauss:NxM or mu=v1,v2,...[;phi=p1,...]"
     if t.startswith("gauss:"):
@@ -82,7 +89,7 @@ def parse_directions(text: str, precision: str) -> dict:
             raise ParameterError(f"directions {text!r} is malformed: {form}") from None
         check_int("directions N (mu nodes)", n_mu, 1, 1024)
         check_int("directions M (azimuths)", n_phi, 1, 1024)
-        return gauss_directions(n_mu, n_phi)
+        return gauss_directions(n_mu, n_phi, below)
     parts = dict(p.partition("=")[::2] for p in t.split(";"))
     if "mu" not in parts or set(parts) - {"mu", "phi"}:
         raise ParameterError(f"directions {text!r} is malformed: {form}")
@@ -91,7 +98,7 @@ def parse_directions(text: str, precision: str) -> dict:
         phi = np.array([float(x) for x in parts.get("phi", "0").split(",")])
     except ValueError:
         raise ParameterError(f"directions {text!r}: values must be numbers ({form})") from None
-    check_mu(mu, precision)
+    check_mu(mu, precision, below)
     if not np.all(np.isfinite(phi)):
         raise ParameterError(f"directions {text!r}: phi must be finite")
     M, P = np.meshgrid(mu, phi, indexing="ij")
@@ -169,13 +176,14 @@ def make_job(model: str, *, axes=None, random=None, directions=None, samples: in
     if isinstance(width, bool) or width not in (1, 2, 4, 8, 16):
         raise ParameterError(f"width={width!r} is not valid: choose one of 1, 2, 4, 8, 16")
     if directions is None:
-        directions = gauss_directions(*ANISO_DIRECTIONS) if spec.anisotropic(cfg, values) \
-            else gauss_directions(DEFAULT_MU_NODES)
+        directions = gauss_directions(*ANISO_DIRECTIONS, below=spec.transmits) \
+            if spec.anisotropic(cfg, values) else \
+            gauss_directions(DEFAULT_MU_NODES, below=spec.transmits)
     elif isinstance(directions, str):
-        directions = parse_directions(directions, precision)
+        directions = parse_directions(directions, precision, spec.transmits)
     else:
         directions = dict(directions)
-    check_mu(directions["mu"], precision)
+    check_mu(directions["mu"], precision, spec.transmits)
     D = len(directions["mu"])
     if D > 32767:
         raise ParameterError(f"directions: {D} is too many: at most 32767 per point")
@@ -301,10 +309,11 @@ def bounds(job: dict, E, s, z, u=(0.0, 0.0)):
     return E - h - u[0], E + h + u[1]
 
 
-def decide(lo, hi):
-    """Verdicts of points from the bounds, of shape (points, D, channels) (module docstring)."""
-    gains = np.any(lo > 1, axis=(1, 2))
-    conserves = np.all(hi <= 1, axis=(1, 2))
+def decide(lo, hi, bound=1.0):
+    """Verdicts of points from the bounds, of shape (points, D, channels), against the most E
+    may be without creating energy (``energy_bound``; module docstring)."""
+    gains = np.any(lo > bound, axis=(1, 2))
+    conserves = np.all(hi <= bound, axis=(1, 2))
     return np.where(gains, GAINS, np.where(conserves, CONSERVES, UNDECIDED)).astype(np.int8)
 
 
@@ -316,6 +325,16 @@ def _model(job, device, vals: dict, rows: np.ndarray):
         params[k] = v[:, None] if k in job["spectral_axes"] else v
     return Model(job["model"], precision=job["precision"], device=device, width=job["width"],
                  preset=job["preset"], **job["fixed"], **params)
+
+
+def energy_bound(job: dict, device, vals: dict, pt, mu) -> np.ndarray:
+    """The most E may be at each pair without creating energy, (pairs, 1): 1, or the model's
+    own bound (``ModelSpec.energy_bound``: a dielectric in radiance transport, E <= max(1,
+    (n_o / n_i)^2))."""
+    m = _model(job, device, vals, pt)
+    if m.spec.energy_bound_fn is None:
+        return np.ones((len(pt), 1))
+    return np.asarray(m.spec.energy_bound(m.config, m.params, mu), float).reshape(-1, 1)
 
 
 def compute_chunk(job: dict, index: int, device) -> dict:
@@ -357,14 +376,16 @@ def compute_chunk(job: dict, index: int, device) -> dict:
                                                  scale=True)
         a = b
     z = z_value(job)
+    B = energy_bound(job, device, vals, pt, mu[dr])           # (n D, 1)
+    B3 = B.reshape(n, D, 1)
     n_now = job["samples"]
     for r in range(1, looks(job)):
         lo, hi = bounds(job, E, S, z, unseen_bound(job, E, W, N))
-        verdict = decide(lo.reshape(n, D, nch), hi.reshape(n, D, nch))
-        # more samples can decide an interval around 1 only where |E - 1| exceeds the rounding
-        # allowance (GGX at alpha 1e-4: E = 1 - 1e-9, undecided at any sample count)
+        verdict = decide(lo.reshape(n, D, nch), hi.reshape(n, D, nch), B3)
+        # more samples can decide an interval around the bound only where |E - bound| exceeds
+        # the rounding allowance (GGX at alpha 1e-4: E = 1 - 1e-9, undecided at any count)
         open_ = (verdict == UNDECIDED)[pt] & np.any(
-            (lo <= 1) & (hi > 1) & (np.abs(E - 1) > rounding(job, E)), axis=1)
+            (lo <= B) & (hi > B) & (np.abs(E - B) > rounding(job, E)), axis=1)
         if job["target_stderr"] is not None:
             open_ |= np.any(reported_error(S, unseen(W, N[:, None]), rounding(job, E))
                             > job["target_stderr"], axis=1)
@@ -387,7 +408,7 @@ def compute_chunk(job: dict, index: int, device) -> dict:
            "samples": N.reshape(n, D).astype(np.uint32 if N.max(initial=0) < 2**32 else np.uint64),
            "E_max": take(E3), "E_max_stderr": take(H3), "E_max_dir": am.astype(np.int16),
            "verdict": decide(*bounds(job, E3, S3, z, [u.reshape(n, D, nch) for u in
-                                                       unseen_bound(job, E, W, N)]))}
+                                                       unseen_bound(job, E, W, N)]), B3)}
     if dirs["weight"] is not None:
         w = np.asarray(dirs["weight"])[None, :, None]
         out["E_avg"] = (w * E3).sum(axis=1)
@@ -413,8 +434,10 @@ def rule_text(job: dict) -> str:
             f"R = {looks(job)} looks, K = {K} estimates per point; the ln(...) / N terms: events "
             f"the N samples did not draw, which lower E by at most that share of |E| and raise "
             f"it by at most that share of W, the estimator's weight scale); "
-            f"gains: some lower bound > 1; conserves: every upper bound <= 1; else undecided. "
-            f"Undecided estimates whose interval contains 1, with |E - 1| above the rounding "
+            f"gains: some lower bound > B; conserves: every upper bound <= B; else undecided, B "
+            f"the most E may be without creating energy (1; a dielectric in radiance transport: "
+            f"max(1, (n_o / n_i)^2)). "
+            f"Undecided estimates whose interval contains B, with |E - B| above the rounding "
             f"allowance, get {GROWTH}x the samples per look, up to {job['max_samples']}. "
             f"P(wrong verdict) <= e per point.")
 
