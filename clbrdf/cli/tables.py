@@ -101,7 +101,8 @@ def cmd_layouts(args) -> int:
         print(f"{name}: {lay['consumer']}")
         for t in lay["tables"]:
             q = t["quantity"] if isinstance(t["quantity"], str) else ", ".join(
-                x if isinstance(x, str) else f"{x.get('label', x['quantity'])} ({x['model']})"
+                x if isinstance(x, str) else
+                f"{x.get('label', x['quantity'])} ({x.get('model', t.get('model', lay['model']))})"
                 for x in t["quantity"])
             print(f"    {t['name']}: {q} over {' x '.join(t['axes'])} "
                   f"({lay.get('encoding', 'float32')})")
