@@ -7,11 +7,12 @@
  *               for each spectral one (rows row .. row + CHANNELS - 1)
  *   CHANNELS    1, or 3 (RGB): a model's value and weight have CHANNELS components
  *   KERNELS     KERNELS_BATCH (eval_batch, pdf_batch, sample_batch), KERNELS_ALBEDO
- *               (albedo_blocks), KERNELS_QUADRATURE (quadrature_panels) or KERNELS_RANDOM
+ *               (albedo_blocks), KERNELS_QUADRATURE (quadrature_panels), KERNELS_LTC
+ *               (ltc_moments, ltc_loss: the fit of kernels/ltc.h) or KERNELS_RANDOM
  *               (random_batch: no model, no Params)
  *   MODEL       the model's function prefix (lambert, microfacet, ...)
  *   ESTIMATOR   ESTIMATOR_UNIFORM | ESTIMATOR_COSINE | ESTIMATOR_BRDF | ESTIMATOR_MIS (albedo)
- *   RNG         rand_philox | rand_sobol (RNG_PHILOX 1 for the first; albedo and random)
+ *   RNG         rand_philox | rand_sobol (RNG_PHILOX 1 for the first; albedo, ltc and random)
  * and includes the model header after common.h, rng.h, warp.h (see clbrdf/runtime/build.py).
  * A program holds one part only, so it compiles no code its caller does not run.
  *
@@ -25,6 +26,7 @@
 #define KERNELS_ALBEDO 1
 #define KERNELS_RANDOM 2
 #define KERNELS_QUADRATURE 3
+#define KERNELS_LTC 4
 
 #define ESTIMATOR_UNIFORM 0
 #define ESTIMATOR_COSINE 1
@@ -545,5 +547,116 @@ __kernel void quadrature_panels(const global real_t *P, Tables TABLES, const glo
 }
 
 #endif /* KERNELS_QUADRATURE */
+
+#if KERNELS == KERNELS_LTC
+
+/* ---- fitting linearly transformed cosines (kernels/ltc.h) to a lobe: clbrdf/api/ltc.py ----
+ * The lobe of a cell is its (wo, parameters) point's f(wo, wi) cos(theta_i) over wi, first
+ * channel; the numbers of sample k of cell c are RNG(k, c, 0, seed) for every launch and every
+ * candidate matrix, so that a fit sees one deterministic loss (common random numbers). */
+
+/* Work-item g: cell g. Sums over `samples` BRDF samples of the weight w = f cos / pdf, with
+ * l = (X.wi, Y.wi, Z.wi) in the cell's frame (FRAME rows X, Y, Z, structure-of-arrays over
+ * ncells: moments about the lobe's mean direction stay accurate in single precision, where
+ * X^T S X of global moments S cancels): out[16 g + 0..12] = sum w, sum w^2, sum w (1 - wo.h)^5
+ * (the Schlick split's B term of Heitz's fit), sum w l (3), sum w l l^T (xx, yy, zz, xy, xz,
+ * yz), sum (w (1 - wo.h)^5)^2. */
+__kernel void ltc_moments(const global real_t *P, Tables TABLES, const global real_t *WO,
+                          const ulong ncells, const global real_t *FRAME, const uint samples,
+                          const uint seed_lo, const uint seed_hi, global real_t *out)
+{
+    ulong g = get_global_id(0);
+    if (g >= ncells) return;
+    Params p = splat_params(P, TABLES, ncells, g);
+    vec3 wo = v3((realN)WO[g], (realN)WO[ncells + g], (realN)WO[2 * ncells + g]);
+    vec3 fx = v3((realN)FRAME[g], (realN)FRAME[ncells + g], (realN)FRAME[2 * ncells + g]);
+    vec3 fy = v3((realN)FRAME[3 * ncells + g], (realN)FRAME[4 * ncells + g], (realN)FRAME[5 * ncells + g]);
+    vec3 fz = v3((realN)FRAME[6 * ncells + g], (realN)FRAME[7 * ncells + g], (realN)FRAME[8 * ncells + g]);
+    realN acc[13];
+    for (int j = 0; j < 13; ++j)
+        acc[j] = 0;
+    for (uint k = 0; k < samples; k += W) {
+        uintN idx = (uintN)k + LANE_IDS;
+        rand4 u = RNG(idx, (uint)g, 0, seed_lo, seed_hi);
+        BSample s = BRDF(sample)(&p, wo, u);
+        maskN ok = TO_MASK(idx < (uintN)samples) & (s.pdf > 0) & (s.wi.z > 0);
+        realN w = sel((realN)0, s.weight.c[0], ok);
+        realN c = half_cos(wo, s.wi), s5 = sqr(sqr(1 - c)) * (1 - c);
+        vec3 x = v3(fx.x * s.wi.x + fx.y * s.wi.y + fx.z * s.wi.z,
+                    fy.x * s.wi.x + fy.y * s.wi.y + fy.z * s.wi.z,
+                    fz.x * s.wi.x + fz.y * s.wi.y + fz.z * s.wi.z);
+        acc[0] += w;
+        acc[1] += w * w;
+        acc[2] += w * s5;
+        acc[3] += w * x.x; acc[4] += w * x.y; acc[5] += w * x.z;
+        acc[6] += w * x.x * x.x; acc[7] += w * x.y * x.y; acc[8] += w * x.z * x.z;
+        acc[9] += w * x.x * x.y; acc[10] += w * x.x * x.z; acc[11] += w * x.y * x.z;
+        acc[12] += sqr(w * s5);
+    }
+    for (int j = 0; j < 13; ++j)
+        out[16 * g + j] = HSUM(acc[j]);
+}
+
+/* Work-item g: candidate g, an LTC for cell CELL[g] given by MAT rows (structure-of-arrays
+ * over ncand): M (9, row-major), M^-1 (9), the cell's magnitude E and a scale s (a constant
+ * per cell near 1 / max D, so that cubes of sharp lobes' densities stay in single precision's
+ * range: e3 below is s^3 times the integrand's). With the normalised lobe t = f cos / E and the
+ * LTC's density D, per sample k one BRDF sample wb and one LTC sample wl
+ * (from u2, u3) give, by multiple importance sampling with the balance heuristic (Heitz et al.
+ * 2016's fit, ltc_code's computeError), estimates of
+ *     L3 = int |t - D|^3 dw      e3 = sum over w in (wb, wl) of |t - D|^3 / (pdf_b + D)
+ *     L1 = int |t - D| dw        e1 = the same with |t - D|  (the relative L1 error, in [0, 2])
+ * out[4 g + 0..3] = sum e3, sum e3^2, sum e1, sum e1^2 over the samples. */
+__kernel void ltc_loss(const global real_t *P, Tables TABLES, const global real_t *WO,
+                       const ulong ncells, const global uint *CELL, const global real_t *MAT,
+                       const ulong ncand, const uint samples, const uint seed_lo,
+                       const uint seed_hi, global real_t *out)
+{
+    ulong g = get_global_id(0);
+    if (g >= ncand) return;
+    uint cell = CELL[g];
+    Params p = splat_params(P, TABLES, ncells, cell);
+    vec3 wo = v3((realN)WO[cell], (realN)WO[ncells + cell], (realN)WO[2 * ncells + cell]);
+    mat3r m, minv;
+    for (int j = 0; j < 9; ++j) {
+        m.m[j] = (realN)MAT[j * ncand + g];
+        minv.m[j] = (realN)MAT[(9 + j) * ncand + g];
+    }
+    realN inv_e = (realN)(1 / MAT[18 * ncand + g]), sc = (realN)MAT[19 * ncand + g];
+    realN s3 = 0, q3 = 0, s1 = 0, q1 = 0;
+    for (uint k = 0; k < samples; k += W) {
+        uintN idx = (uintN)k + LANE_IDS;
+        rand4 u = RNG(idx, cell, 0, seed_lo, seed_hi);
+        maskN live = TO_MASK(idx < (uintN)samples);
+        /* the lobe's sample: f cos = weight pdf */
+        BSample sb = BRDF(sample)(&p, wo, u);
+        maskN okb = (sb.pdf > 0) & (sb.wi.z > 0) & isfinite(sb.pdf);
+        realN tb = sel((realN)0, sb.weight.c[0] * sb.pdf * inv_e, okb);
+        realN db = ltc_eval(&minv, sb.wi);
+        realN pb = sel((realN)0, sb.pdf, okb) + db;
+        realN ab = fabs(tb - db), rb = sel((realN)0, 1 / pb, okb & (pb > 0));
+        /* the LTC's sample */
+        vec3 wl = ltc_sample(&m, u.u2, u.u3);
+        realN dl = ltc_eval(&minv, wl);
+        realN tl = BRDF(eval)(&p, wo, wl).c[0] * fmax(wl.z, (realN)0) * inv_e;
+        realN pl = BRDF(pdf)(&p, wo, wl) + dl;
+        realN al = fabs(tl - dl), rl = sel((realN)0, 1 / pl, pl > 0);   /* below the horizon, t = 0: the
+                                                                       * LTC's lost mass counts */
+        ab *= sc;
+        al *= sc;
+        realN e3 = sel((realN)0, ab * ab * ab * rb + al * al * al * rl, live);
+        ab /= sc;
+        al /= sc;
+        realN e1 = sel((realN)0, ab * rb + al * rl, live);
+        s3 += e3; q3 += e3 * e3;
+        s1 += e1; q1 += e1 * e1;
+    }
+    out[4 * g] = HSUM(s3);
+    out[4 * g + 1] = HSUM(q3);
+    out[4 * g + 2] = HSUM(s1);
+    out[4 * g + 3] = HSUM(q1);
+}
+
+#endif /* KERNELS_LTC */
 
 #endif /* a model's kernels */

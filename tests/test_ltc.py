@@ -7,6 +7,8 @@ with the fraction of 2^20 LTC samples that pass through the quad (a binomial pro
 5 standard errors, two-sided significance 6e-7 per quad). The density integrates to 1 over the
 sphere (a quadrature in the cosine's own coordinates, which the matrix maps one to one).
 """
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -94,4 +96,90 @@ def test_reference_polygon_against_monte_carlo():
         p = abs(exact)          # the binomial's standard error under the null p = exact
         assert abs(p - abs(mc)) < 5 * np.sqrt(p * (1 - p) / n) + 1 / n, (exact, mc)
         checked += p > 0.01
+    assert checked > 10
+
+
+# ---- the fit ----
+
+SHIPPED = Path(__file__).parent / "data" / "renderers" / "ltc_code_ggx.csv"
+
+
+def shipped_minv(t, a):
+    """The normalised M^-1 of ltc_code's GGX table at row t (v = t/63), texel a (r = a/63)."""
+    d = np.loadtxt(SHIPPED, delimiter=",", comments="#", skiprows=4).reshape(64, 64, 8)[t, a]
+    m = np.eye(3)
+    m[0, 0], m[2, 0], m[0, 2], m[2, 2] = d[:4]
+    return m, d[4]
+
+
+# cells of ltc_code's 64 x 64 table: smooth and rough, normal to grazing (v = 1 is theta = 1.57)
+CELLS = [(0, 32), (16, 8), (32, 63), (40, 20), (48, 40), (56, 50), (63, 30)]
+
+
+@pytest.fixture(scope="module")
+def ggx_cells():
+    from clbrdf.api.ltc import fit_ltc, ltc_errors
+    axes = {"sqrt1m_mu": [min(t / 63, 0.999602) for t, _ in CELLS], "r": sorted({a / 63 for _, a in CELLS})}
+    fit = fit_ltc("ggx", axes)
+    minv = np.zeros((len(axes["sqrt1m_mu"]), len(axes["r"]), 3, 3))
+    for i, _ in enumerate(CELLS):
+        for j, r in enumerate(axes["r"]):
+            minv[i, j] = shipped_minv(CELLS[i][0], round(r * 63))[0]
+    return axes, fit, ltc_errors("ggx", axes, minv)
+
+
+def test_fit_no_worse_than_shipped(ggx_cells):
+    """Our fit's L3 against ltc_code's shipped matrices' under the same metric and samples
+    (each cell's own seed), at the cells of CELLS: no worse by more than 3 standard errors of
+    the difference (the 64 x 64 comparison is benchmarks/bench_ltc.py's)."""
+    axes, fit, shipped = ggx_cells
+    for i, (t, a) in enumerate(CELLS):
+        j = axes["r"].index(a / 63)
+        ours, theirs = fit["L3"][i, j], shipped["L3"][i, j]
+        se = np.hypot(fit["L3_stderr"][i, j], shipped["L3_stderr"][i, j])
+        assert ours <= theirs + 3 * se, (t, a, ours, theirs, se)
+        assert 0 <= fit["L1"][i, j] <= 2
+
+
+def test_magnitude_against_albedo(ggx_cells):
+    """E of the fit (its own Philox pass) against clbrdf.albedo (the table machinery's own
+    estimator and seed): 5 standard errors of the difference."""
+    import clbrdf
+    axes, fit, _ = ggx_cells
+    mu = 1 - np.asarray(axes["sqrt1m_mu"]) ** 2
+    alpha = np.asarray(axes["r"]) ** 2
+    r = clbrdf.albedo(clbrdf.Model("ggx", alpha=np.maximum(alpha, 1e-4)[None, :]), mu[:, None],
+                      samples=1 << 18)
+    se = np.hypot(r.stderr, fit["E_stderr"])
+    assert np.all(np.abs(r.albedo - fit["E"]) <= 5 * se + 1e-7)
+
+
+def test_polygon_error_within_l1(ggx_cells):
+    """What an area light shows: for random quads above and across the horizon, E times the
+    LTC's polygon integral against the lobe's own integral over the quad by Monte Carlo
+    (2^20 BRDF samples). |E int_P D - int_P f cos| <= E int |t - D| = E L1, so the difference
+    must stay within E L1 (+ 5 standard errors of both estimates)."""
+    import clbrdf
+    from clbrdf.api.ltc import ltc_matrix
+    axes, fit, _ = ggx_cells
+    rng = np.random.default_rng(7)
+    _, quads = random_cases(12, seed=11)
+    checked = 0
+    for i, (t, a) in enumerate(CELLS[:5]):
+        j = axes["r"].index(a / 63)
+        mu = 1 - axes["sqrt1m_mu"][i] ** 2
+        wo = np.array([np.sqrt(1 - mu * mu), 0, mu])
+        minv = ltc_matrix(fit, i, j)
+        E, L1 = fit["E"][i, j], fit["L1"][i, j]
+        m = clbrdf.Model("ggx", alpha=max((a / 63) ** 2, 1e-4), precision="double")
+        n = 1 << 20
+        wi, w, _ = m.sample(np.broadcast_to(wo, (n, 3)), seed=int(rng.integers(1 << 30)))
+        for q in quads:
+            lt = E * ref.ltc_polygon(minv, q)
+            hit = ref.inside_polygon(wi, q)
+            x = np.where(hit, w, 0.0)
+            own = x.mean() * np.sign(lt or 1)
+            se = x.std() / np.sqrt(n) + fit["E_stderr"][i, j] + fit["L1_stderr"][i, j]
+            assert abs(lt - own) <= E * L1 + 5 * se, (t, a, lt, own, L1)
+            checked += abs(own) > 1e-3
     assert checked > 10

@@ -22,7 +22,7 @@ from ..tables.layouts import (
     layouts as _layouts,
     make_layout,
 )
-from ..tables.table import load_tables
+from ..tables.table import DIRECTION_AXES, load_tables
 from .common import (
     Terminated,
     c_name,
@@ -241,7 +241,7 @@ def _table_summary(t, seconds: float, written) -> str:
     ]
     if t.average is not None:
         A = np.asarray(t["E_avg"], dtype=float)
-        others = [n for n in names if n not in ("mu", "theta", "phi")]
+        others = [n for n in names if n not in DIRECTION_AXES]
         if others and A.ndim:
             j0 = np.unravel_index(int(np.argmin(A)), A.shape)
             j1 = np.unravel_index(int(np.argmax(A)), A.shape)

@@ -59,7 +59,7 @@ def expand(name: str, seen: set | None = None) -> str:
     return f'// ---- {name} ----\n' + _INCLUDE.sub(sub, read_kernel(name))
 
 
-PARTS = ("batch", "random", "albedo", "quadrature")
+PARTS = ("batch", "random", "albedo", "quadrature", "ltc")
 _TABLE = re.compile(r"\bTABLE_([a-z][a-z0-9_]*)\b")
 
 
@@ -104,8 +104,8 @@ def program_source(cfg: Config, precision: str, width: int, *, part: str = "batc
                    estimator: str = "brdf", rng: str = "philox") -> tuple[str, tuple[str, ...]]:
     """The self-contained source of one program. ``part`` picks its kernels, so that a program
     holds only the code its caller runs: ``batch`` (eval_batch, pdf_batch, sample_batch),
-    ``albedo`` (albedo_blocks for one estimator and generator), ``quadrature`` (quadrature_panels)
-    or ``random`` (random_batch for one
+    ``albedo`` (albedo_blocks for one estimator and generator), ``quadrature`` (quadrature_panels),
+    ``ltc`` (ltc_moments and ltc_loss for one generator: the LTC fit) or ``random`` (random_batch for one
     generator; it contains no model, so one program serves every model). Returns the source and
     the names of the tables it reads (``with_tables``); assembled once per configuration."""
     if part not in PARTS:
@@ -119,7 +119,9 @@ def program_source(cfg: Config, precision: str, width: int, *, part: str = "batc
         body.append(expand("integrators.cl", seen))
         return with_tables("\n".join(lines) + "\n" + "\n".join(body))
     lines += [f"#define MODEL {cfg.prefix}", f"#define CHANNELS {cfg.channels}"]
-    if part == "albedo":
+    if part == "ltc":
+        body.append(expand("ltc.h", seen))
+    if part in ("albedo", "ltc"):
         lines += [f"#define ESTIMATOR ESTIMATOR_{estimator.upper()}",
                   f"#define RNG rand_{rng}", f"#define RNG_PHILOX {int(rng == 'philox')}"]
     lines += [f"#define {k} {v}" for k, v in cfg.defines]

@@ -15,7 +15,8 @@ mu = 1e-4), ``max=HI`` at min(value, HI) (Cycles' glass tables: z = 1 computed a
 Mapped axes (``MAPPED``) name a quantity that the model takes in another form: ``r`` is the
 roughness with alpha = r^2 (Cycles, Filament, UE, OSPRay: "perceptual" roughness; also Adobe's
 sqrt(alpha) axis), ``theta`` is the polar angle of wo in radians with mu = cos(theta) (MDL's
-theta-linear axis), ``ior_z`` and ``inv_ior_z`` the index of refraction's axis of Cycles' glass
+theta-linear axis), ``sqrt1m_mu`` the view axis v = sqrt(1 - mu) of the LTC tables of Heitz
+et al. 2016 (ltc_code, three.js), mu = 1 - v^2; ``ior_z`` and ``inv_ior_z`` the index of refraction's axis of Cycles' glass
 tables, z = F0^(1/4) = sqrt((ior - 1)/(ior + 1)), with eta = ior = (1 + z^2)/(1 - z^2)
 (entering, ``ior_z``) or eta = 1/ior (exiting, ``inv_ior_z``; a wo above a surface of relative
 index 1/ior is a wo below one of ior); ``inv_eta`` an index of refraction given by its
@@ -38,12 +39,15 @@ MAX_COUNT = 1_000_000
 MAPPED = {
     "r": ("alpha", "alpha = r^2", lambda r: r * r, np.sqrt),
     "theta": ("mu", "mu = cos(theta)", np.cos, np.arccos),
+    "sqrt1m_mu": ("mu", "mu = 1 - v^2", lambda v: 1 - v * v, lambda mu: np.sqrt(1 - mu)),
     "ior_z": ("eta", "eta = (1 + z^2) / (1 - z^2)", lambda z: (1 + z * z) / (1 - z * z),
               lambda e: np.sqrt((e - 1) / (e + 1))),
     "inv_ior_z": ("eta", "eta = (1 - z^2) / (1 + z^2)", lambda z: (1 - z * z) / (1 + z * z),
                   lambda e: np.sqrt((1 - e) / (1 + e))),
     "inv_eta": ("eta", "eta = 1 / v", lambda v: 1 / v, lambda e: 1 / e),
 }
+
+VIEW = ("mu",) + tuple(k for k, m in MAPPED.items() if m[0] == "mu")   # axes of wo's polar angle
 
 FORM = ("expected NAME=START:STOP:COUNT[:lin|log|sqrt][:nodes|centres][:min=LO][:max=HI], "
         "NAME=START:STOP[:SPACING] (random points) or NAME=v1,v2,...")

@@ -7,6 +7,7 @@ import io
 
 import numpy as np
 
+from .axes import VIEW
 from .table import DIRECTION_AXES, Table
 
 CHANNEL_NAMES = ("R", "G", "B")
@@ -48,7 +49,7 @@ def albedo_figure(table: Table):
     meta = table.computed
     names = list(meta["axes"])
     rgb = "channel" in names
-    d = "mu" if "mu" in names else "theta"
+    d = next(n for n in names if n in VIEW)
     e_axes = [a for a in names if a not in (d, "channel")]         # E's axes besides mu
     a_axes = [a for a in names if a not in (d, "phi", "channel")]
     spacing = meta.get("spacing", {})

@@ -73,9 +73,10 @@ def table_axes(spec, axes, fixed=None, precision: str = "single", spacing=None) 
             ax["spacing"] = spacing[k]      # values made by the caller with this spacing
         out.append(ax)
     names = [a["name"] for a in out]
-    if ("mu" in names) == ("theta" in names):
+    if sum(n in ax_mod.VIEW for n in names) != 1:
         raise ParameterError("a table needs one axis of the outgoing direction: mu (mu="
-                             "START:STOP:COUNT) or theta (radians, mu = cos theta)")
+                             "START:STOP:COUNT), theta (radians, mu = cos theta) or sqrt1m_mu "
+                             "(mu = 1 - v^2)")
     if "r" in names and "alpha" in names:
         raise ParameterError("give axis r (alpha = r^2) or axis alpha, not both")
     for ax in out:
@@ -213,7 +214,7 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
                                  f"and sets f0, f90 and channels itself; {name} with "
                                  f"{', '.join(bad) or 'fresnel=' + str(fixed.get('fresnel'))}")
         fixed = {**fixed, "fresnel": "schlick", "channels": 3, **SPLIT}
-    dir_axes = ("mu", "theta", "phi")
+    dir_axes = ax_mod.VIEW + ("phi",)
     pnames = [k for k in names if k not in dir_axes]
     # a model at the first grid point tells which parameters are per channel
     probe = Model(name, precision=precision, device=device, width=width, **fixed,
@@ -228,7 +229,7 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
     t0 = time.perf_counter()
     out = {k: np.asarray(a["values"], dtype=np.float64) for k, a in zip(names, axl)}
     quad = {"tol": tol, "max_evals": max_evals} if estimator == "quadrature" else {}
-    mu_grid = grids["mu"] if "mu" in grids else grids["theta"]
+    mu_grid = next(grids[n] for n in ax_mod.VIEW if n in grids)
     phi_grid = grids.get("phi", np.zeros_like(mu_grid))
     r = albedo(m, mu_grid, phi_grid, samples=samples, estimator=estimator,
                seed=seed, qmc=qmc, progress=progress, **quad)

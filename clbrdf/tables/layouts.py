@@ -17,7 +17,7 @@ import numpy as np
 from ..api.albedo import fresnel_avg
 from ..api.model import Model
 from ..models.spec import ParameterError
-from .axes import check_form, evaluated, midpoints, parse_axis
+from .axes import VIEW, check_form, evaluated, midpoints, parse_axis
 from .compute import albedo_table
 from .table import ENCODINGS, Table, encode
 
@@ -108,7 +108,7 @@ def _run_kc(model, axl, q, fixed, **kw):
     one["fresnel"] = "one"
     vF, sF, t = _run(model, axl, [plain], fixed, **kw)
     v1, s1, _ = _run(model, rest, [plain], one, **kw)
-    keep = [a for a in rest if a["name"] not in ("mu", "theta")]
+    keep = [a for a in rest if a["name"] not in VIEW]
     if avg:
         va, sa = v1, s1
     else:
@@ -157,9 +157,9 @@ def compute_table(model: str, name: str, quantity, axes: list, *, fixed=None, va
         raise ParameterError(f"table {name}: F_avg is a table of its own")
     if any(avg) and not all(avg):
         raise ParameterError(f"table {name}: quantities {qs} mix directional and average values")
-    if all(avg) and ({"mu", "theta", "phi"} & set(names)):
+    if all(avg) and ((set(VIEW) | {"phi"}) & set(names)):
         raise ParameterError(f"table {name}: an average ({qs[0]}) has no mu, theta or phi axis")
-    if not all(avg) and not ({"mu", "theta"} & set(names)):
+    if not all(avg) and not (set(VIEW) & set(names)):
         raise ParameterError(f"table {name}: {qs[0]} needs a mu or theta axis")
     if "F_avg" in qs:
         return _fresnel_table(model, name, qs, axl, fixed, value_range, encoding, layout, kw)

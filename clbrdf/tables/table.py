@@ -27,12 +27,12 @@ from pathlib import Path
 import numpy as np
 
 from ..models.spec import ParameterError
-from .axes import MAPPED, unwarp
+from .axes import MAPPED, VIEW, unwarp
 
 FORMAT = "clbrdf-tables/2"
 FORMATS_READ = ("clbrdf-tables/1", FORMAT)  # 1: the layout tables of clbrdf 0.1.0
 ENCODINGS = ("float32", "float16", "unorm16", "float64")
-DIRECTION_AXES = ("mu", "theta", "phi")
+DIRECTION_AXES = VIEW + ("phi",)
 CHANNELS = ("R", "G", "B")
 
 

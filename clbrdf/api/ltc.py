@@ -1,0 +1,324 @@
+"""``clbrdf.fit_ltc``: linearly transformed cosines (Heitz, Dupuy, Hill & Neubelt 2016) fitted to
+a model's lobe f(wo, wi) cos(theta_i) / E(wo) in every cell of a table, all cells at once.
+
+Per cell (a view angle and parameter values):
+- one pass of BRDF samples (Philox, ``report_samples`` per cell) gives the magnitude E, the
+  Schlick split's B term int f cos (1 - wo.h)^5 (what the engines store beside the matrix), the
+  lobe's mean direction and its second moments;
+- the start: the frame of the mean direction (Heitz's X, Y, Z: y kept out for an isotropic
+  model) and the scales a, b whose transformed cosine has the lobe's second moments in that
+  frame (``_scale_of_moment``), so that no cell waits for a neighbour and the fit runs in
+  parallel;
+- Nelder-Mead over (log a, log b, c, t) with M = [X Y Z] Ry(t) [[a, 0, c], [0, b, 0], [0, 0, 1]]
+  (ltc_code's parametrisation, whose frame stays at the mean direction, and the turn t of the
+  frame about Y: all four free entries; without t the fit was up to 1.4x worse in L3 than
+  ltc_code's shipped GGX table at r > 0.8, whose frame came from its own noisy mean), in lockstep for all cells: each step is one or two kernel
+  launches of one candidate per active cell, each the L3 error between lobe and LTC estimated
+  with the same ``samples`` quasi-random numbers per cell (common random numbers: a
+  deterministic loss that the simplex can converge on);
+- the reported errors: L3 = int |t - D|^3 dw (the fit's own metric, t the normalised lobe) and
+  the relative L1 error int |t - D| dw (in [0, 2]: twice the mass the LTC puts in the wrong
+  place), each with its standard error, from ``report_samples`` independent Philox samples.
+The matrix is stored as ltc_code and the engines store it: M^-1 divided by its middle element.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..models import get_spec
+from ..models.spec import ParameterError, check_int
+from ..runtime.launch import derive_seed, environment
+from ..runtime.ltc import LTCRunner
+from ..version import __version__
+from .model import Model
+
+ENTRIES = tuple(f"minv{r}{c}" for r in range(3) for c in range(3))
+QUANTITIES = ENTRIES + ("E", "B", "L3", "L1")
+
+
+def _moment_of_scale(a):
+    """E[x^2] of the cosine lobe through diag(a, a, 1), normalised: with u = sin^2 theta
+    uniform, x^2 = a^2 u cos^2 phi / (a^2 u + 1 - u), so E = a^2 (k - log1p(k)) / (2 k^2),
+    k = a^2 - 1 (a series near k = 0)."""
+    a2 = a * a
+    k = a2 - 1
+    small = np.abs(k) < 1e-3
+    ks = np.where(small, 1.0, k)
+    exact = a2 * (ks - np.log1p(ks)) / (2 * ks * ks)
+    series = a2 * (0.5 - k / 3 + k * k / 4) / 2
+    return np.where(small, series, exact)
+
+
+def _scale_of_moment(s):
+    """The a with _moment_of_scale(a) = s (bisection in log a; s in (0, 1/2))."""
+    s = np.clip(s, 1e-14, 0.5 - 1e-9)
+    lo, hi = np.full(s.shape, -16.0), np.full(s.shape, 8.0)
+    for _ in range(80):
+        mid = (lo + hi) / 2
+        big = _moment_of_scale(np.exp(mid)) > s
+        hi = np.where(big, mid, hi)
+        lo = np.where(big, lo, mid)
+    return np.exp((lo + hi) / 2)
+
+
+def _frames(mean, isotropic: bool):
+    """(n, 3, 3) rotations [X Y Z] (columns) with Z the lobe's mean direction."""
+    z = np.array(mean, float)
+    if isotropic:
+        z[:, 1] = 0
+    nz = np.linalg.norm(z, axis=1)
+    z = np.where(nz[:, None] > 0, z / np.where(nz > 0, nz, 1)[:, None], [0.0, 0.0, 1.0])
+    x = np.stack([z[:, 2], np.zeros(len(z)), -z[:, 0]], axis=1)
+    nx = np.linalg.norm(x, axis=1)
+    x = np.where(nx[:, None] > 1e-12, x / np.where(nx > 0, nx, 1)[:, None], [1.0, 0.0, 0.0])
+    y = np.cross(z, x)
+    return np.stack([x, y, z], axis=2)
+
+
+def _matrices(frames, x):
+    """M = R Ry(t) S(a, b, c) and M^-1 for parameters x = (log a, log b, c, t) (n, 4): the
+    frame R turned by t about its Y axis; the four free entries of an isotropic LTC (M^-1 in the
+    x-z plane, normalised by its middle element)."""
+    n = len(x)
+    ct, st = np.cos(x[:, 3]), np.sin(x[:, 3])
+    ry = np.zeros((n, 3, 3))
+    ry[:, 0, 0], ry[:, 0, 2], ry[:, 1, 1], ry[:, 2, 0], ry[:, 2, 2] = ct, st, 1, -st, ct
+    frames = frames @ ry
+    s = np.zeros((n, 3, 3))
+    s[:, 0, 0] = np.exp(x[:, 0])
+    s[:, 1, 1] = np.exp(x[:, 1])
+    s[:, 0, 2] = x[:, 2]
+    s[:, 2, 2] = 1
+    m = frames @ s
+    return m, np.linalg.inv(m)
+
+
+class _Fit:
+    """The cells' runner and the loss of candidate parameters (cells, x)."""
+
+    def __init__(self, runner, frames, E, scale, samples, seed):
+        self.runner, self.frames, self.E, self.scale = runner, frames, E, scale
+        self.samples, self.seed, self.evaluations = samples, seed, 0
+
+    def __call__(self, cells, x):
+        if len(cells) == 0:
+            return np.zeros(0)
+        m, minv = _matrices(self.frames[cells], x)
+        r = self.runner.loss(cells, m, minv, self.E[cells], self.scale[cells], self.samples,
+                             self.seed)
+        self.evaluations += len(cells)
+        return r[:, 0] / self.samples
+
+
+def nelder_mead(f, x0, steps, *, max_iter=600, xtol=1e-4, ftol=1e-6):
+    """Nelder-Mead (reflection 1, expansion 2, contraction 1/2, shrink 1/2; Lagarias et al.
+    1998) on n problems at once: f(cells, x) evaluates the candidates x (k, d) of the problems
+    ``cells``; x0 (n, d) and per-coordinate initial steps (n, d). A problem stops when its
+    simplex is within xtol in every coordinate and its values within ftol (relative) of the best.
+    Returns (x (n, d), f (n,), iterations (n,))."""
+    n, d = x0.shape
+    simplex = np.repeat(x0[:, None], d + 1, axis=1)
+    for j in range(d):
+        simplex[:, j + 1, j] += steps[:, j]
+    cells = np.arange(n)
+    fv = f(np.repeat(cells, d + 1), simplex.reshape(-1, d)).reshape(n, d + 1)
+    its = np.zeros(n, int)
+    active = np.ones(n, bool)
+    for _ in range(max_iter):
+        order = np.argsort(fv, axis=1, kind="stable")
+        simplex = np.take_along_axis(simplex, order[..., None], axis=1)
+        fv = np.take_along_axis(fv, order, axis=1)
+        spread_x = np.max(np.abs(simplex[:, 1:] - simplex[:, :1]), axis=(1, 2))
+        spread_f = fv[:, -1] - fv[:, 0]
+        active &= ~((spread_x <= xtol) & (spread_f <= ftol * np.abs(fv[:, 0])))
+        a = np.flatnonzero(active)
+        if a.size == 0:
+            break
+        its[a] += 1
+        s, v = simplex[a], fv[a]
+        c = s[:, :-1].mean(axis=1)
+        worst = s[:, -1]
+        xr = 2 * c - worst
+        fr = f(a, xr)
+        expand = fr < v[:, 0]
+        accept_r = (fr >= v[:, 0]) & (fr < v[:, -2])
+        contract = fr >= v[:, -2]
+        outside = contract & (fr < v[:, -1])
+        x2 = np.where(expand[:, None], c + 2 * (xr - c),
+                      np.where(outside[:, None], c + 0.5 * (xr - c), c + 0.5 * (worst - c)))
+        need = expand | contract
+        f2 = np.full(a.size, np.inf)
+        f2[need] = f(a[need], x2[need])
+        new_x, new_f = worst.copy(), v[:, -1].copy()
+        take_r = accept_r | (expand & ~(f2 < fr))
+        new_x[take_r], new_f[take_r] = xr[take_r], fr[take_r]
+        take_e = expand & (f2 < fr)
+        new_x[take_e], new_f[take_e] = x2[take_e], f2[take_e]
+        take_c = (outside & (f2 <= fr)) | (contract & ~outside & (f2 < v[:, -1]))
+        new_x[take_c], new_f[take_c] = x2[take_c], f2[take_c]
+        shrink = contract & ~take_c
+        s[:, -1], v[:, -1] = new_x, new_f
+        if shrink.any():
+            k = np.flatnonzero(shrink)
+            s[k, 1:] = s[k, :1] + 0.5 * (s[k, 1:] - s[k, :1])
+            v[k, 1:] = f(np.repeat(a[k], d), s[k, 1:].reshape(-1, d)).reshape(k.size, d)
+        simplex[a], fv[a] = s, v
+    best = np.argmin(fv, axis=1)
+    return simplex[np.arange(n), best], fv[np.arange(n), best], its
+
+
+class _Cells:
+    """The cells of a fit: the validated axes, the model over the flattened grid, wo per cell,
+    and the lobe's moments (E, B, the frame and the moment-matched start) from ``N`` Philox
+    samples per cell."""
+
+    def __init__(self, name, axes, fixed, precision, device, width, N, seed):
+        from ..tables import axes as ax_mod
+        from ..tables.compute import table_axes
+        spec = get_spec(name)
+        if spec.transmits:
+            raise ParameterError(f"fit_ltc: {name} transmits; an LTC approximates a reflection "
+                                 f"lobe over the upper hemisphere: choose a reflection model")
+        if fixed.get("channels", 1) != 1:
+            raise ParameterError("fit_ltc fits one channel: leave channels at 1")
+        self.axl = table_axes(spec, axes, fixed, precision)
+        names = self.names = [a["name"] for a in self.axl]
+        if "phi" in names:
+            raise ParameterError("fit_ltc: a phi axis needs the anisotropic fit (all 5 entries "
+                                 "of M^-1), which is not built yet; fit an isotropic model")
+        evals = {a["name"]: ax_mod.evaluated(a) for a in self.axl}
+        target = {k: ax_mod.MAPPED[k][0] if k in ax_mod.MAPPED else k for k in names}
+        grids = dict(zip(names, np.meshgrid(*[evals[k] for k in names], indexing="ij")))
+        self.shape = grids[names[0]].shape
+        view = next(k for k in names if k in ax_mod.VIEW)
+        mu = self.mu = grids[view].reshape(-1)
+        self.params = {target[k]: grids[k].reshape(-1) for k in names if k != view}
+        m = self.model = Model(name, precision=precision, device=device, width=width, **fixed,
+                               **self.params)
+        if m.anisotropic:
+            raise ParameterError(f"fit_ltc: {name} with these parameters is anisotropic; the "
+                                 f"anisotropic fit (5 entries of M^-1) is not built yet")
+        n = self.n = mu.size
+        self.wo = np.stack([np.sqrt((1 - mu) * (1 + mu)), np.zeros(n), mu], axis=1)
+        self.indep = LTCRunner(m, self.wo, "philox")
+        self.N, self.seed = N, seed
+        first = self.indep.moments(min(N, 1 << 12), derive_seed(seed, 0))
+        self.frames = _frames(first[:, 3:6], isotropic=True)
+        mom = self.indep.moments(N, derive_seed(seed, 1), self.frames)
+        E = self.E = mom[:, 0] / N
+        self.E_se = np.sqrt(np.maximum(mom[:, 1] / N - E * E, 0) / (N - 1))
+        B = self.B = mom[:, 2] / N
+        self.B_se = np.sqrt(np.maximum(mom[:, 12] / N - B * B, 0) / (N - 1))
+        if np.any(E <= 0):
+            i = int(np.argmin(E))
+            at = ", ".join(f"{k}={v[i]:g}" for k, v in self.params.items())
+            raise ParameterError(f"fit_ltc: the lobe is empty (E = {E[i]:g}) at mu={mu[i]:g}, {at}")
+        # the frame of the accurate mean (in the first frame), and the moments turned into it
+        mean_local = mom[:, 3:6] / mom[:, 0:1]
+        rot = _frames(mean_local, isotropic=True)          # local frame -> refined frame
+        self.frames = self.frames @ rot
+        S = np.zeros((n, 3, 3))
+        for (i, j), col in zip([(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)], range(6, 12)):
+            S[:, i, j] = S[:, j, i] = mom[:, col] / mom[:, 0]
+        local = np.einsum("nki,nkl,nlj->nij", rot, S, rot)     # rot^T S rot
+        a = _scale_of_moment(local[:, 0, 0])
+        b = _scale_of_moment(local[:, 1, 1])
+        self.x0 = np.stack([np.log(a), np.log(b), np.zeros(n), np.zeros(n)], axis=1)
+        self.steps = np.stack([np.full(n, 0.1), np.full(n, 0.1), np.minimum(0.1 * a, 0.1),
+                               np.minimum(0.1 * a, 0.05)], axis=1)
+        self.scale = np.pi * a * b                   # about 1 / max D of the start
+
+    def errors(self, minv, seed_word: int = 3):
+        """(L3, L3_se, L1, L1_se) of the LTCs minv (n, 3, 3) from N independent samples."""
+        minv = np.asarray(minv, float)
+        N, k3 = self.N, 1 / self.scale ** 3
+        rep = self.indep.loss(np.arange(self.n), np.linalg.inv(minv), minv, self.E, self.scale,
+                              N, derive_seed(self.seed, seed_word))
+        L3 = rep[:, 0] / N * k3
+        L3_se = np.sqrt(np.maximum(rep[:, 1] / N - (rep[:, 0] / N) ** 2, 0) / (N - 1)) * k3
+        L1 = rep[:, 2] / N
+        L1_se = np.sqrt(np.maximum(rep[:, 3] / N - L1 * L1, 0) / (N - 1))
+        return L3, L3_se, L1, L1_se
+
+    def table(self, minv, errors, meta):
+        from ..tables.table import Table
+        n = self.n
+        minv_n = minv / minv[:, 1:2, 1:2]
+        L3, L3_se, L1, L1_se = errors
+        vals = np.concatenate([minv_n.reshape(n, 9), np.stack([self.E, self.B, L3, L1], 1)], 1)
+        errs = np.concatenate([np.zeros((n, 9)),
+                               np.stack([self.E_se, self.B_se, L3_se, L1_se], 1)], 1)
+        m = self.model
+        computed = {"quantity": "ltc", "model": m.name,
+                    **{k: v for k, v in m.describe().items() if k != "model" and k not in self.params},
+                    "axes": self.names, "report_samples": self.N, "seed": self.seed,
+                    "precision": m.precision, **meta, "device": m.device.info.name,
+                    "width": m.width, "clbrdf": __version__, "environment": environment()}
+        q = len(QUANTITIES)
+        return Table(name="ltc", axes=self.axl, quantity=list(QUANTITIES),
+                     raw=vals.reshape(self.shape + (q,)), stderr=errs.reshape(self.shape + (q,)),
+                     encoding="float64", meta={"computed": computed})
+
+
+def fit_ltc(name: str, axes: dict, *, samples: int = 1024, report_samples: int = 1 << 16,
+            seed: int = 0, precision: str = "single", device=None, width: int | None = None,
+            max_iter: int = 600, restarts: int = 1, command: str | None = None, **fixed):
+    """A table of LTC fits over the grid of ``axes`` (as ``clbrdf.albedo_table`` takes them: a
+    view axis ``mu``, ``theta`` or ``sqrt1m_mu``, ``r`` or ``alpha`` and any numeric
+    parameter), with fixed parameters and options in ``fixed``. Returns a ``clbrdf.Table``
+    named "ltc" whose quantities are the normalised M^-1 entries ``minv00`` .. ``minv22``
+    (row-major, M^-1 / M^-1[1][1]), the magnitude ``E``, the Schlick split's ``B`` term (with
+    F0: E(F0) = F0 (E - B) + B), the fit's ``L3`` error and the relative ``L1`` error, each with
+    its ``_stderr`` (module docstring). ``samples``: quasi-random samples per loss evaluation
+    (a multiple of 16); ``report_samples``: Philox samples of E, B and the reported errors;
+    ``max_iter``: Nelder-Mead iterations per cell and run, at most; ``restarts``: further runs
+    from the best point."""
+    samples = check_int("samples", samples, 16, 1 << 24, "[16, 2^24]")
+    if samples % 16:
+        raise ParameterError(f"samples={samples} is not valid: give a multiple of 16")
+    report_samples = check_int("report_samples", report_samples, 16, 1 << 28, "[16, 2^28]")
+    max_iter = check_int("max_iter", max_iter, 1, 100000)
+    restarts = check_int("restarts", restarts, 0, 100)
+    t0 = time.perf_counter()
+    c = _Cells(name, axes, fixed, precision, device, width, report_samples, seed)
+    loss = _Fit(LTCRunner(c.model, c.wo, "sobol"), c.frames, c.E, c.scale, samples,
+                derive_seed(seed, 2))
+    x, fx, its = nelder_mead(loss, c.x0, c.steps, max_iter=max_iter)
+    for _ in range(restarts):       # a collapsed simplex can stall off the minimum (Lagarias et
+        # al. 1998): start a fresh one at the best point
+        x2, f2, its2 = nelder_mead(loss, x, c.steps, max_iter=max_iter)
+        better = f2 < fx
+        x[better], fx[better] = x2[better], f2[better]
+        its += its2
+    _, minv = _matrices(c.frames, x)
+    errors = c.errors(minv)
+    meta = {"fit": "Nelder-Mead on (log a, log b, c, t), M = [X Y Z] Ry(t) [[a, 0, c], "
+                   "[0, b, 0], [0, 0, 1]] (clbrdf/api/ltc.py)",
+            "loss": "L3 = int |f cos / E - D|^3 dw, MIS of the lobe's and the LTC's samples",
+            "samples": samples, "max_iter": max_iter, "restarts": restarts, "iterations_max": int(its.max()),
+            "iterations_mean": round(float(its.mean()), 2),
+            "loss_evaluations": int(loss.evaluations),
+            "seconds": round(time.perf_counter() - t0, 3), **({"command": command} if command else {})}
+    return c.table(minv, errors, meta)
+
+
+def ltc_errors(name: str, axes: dict, minv, *, report_samples: int = 1 << 16, seed: int = 0,
+               precision: str = "single", device=None, width: int | None = None, **fixed):
+    """The errors of given LTCs (``minv`` (..., 3, 3) over the grid of ``axes``, e.g. a shipped
+    table's) under fit_ltc's metrics, with the same samples fit_ltc reports with: a Table as
+    fit_ltc's, with these matrices."""
+    c = _Cells(name, axes, fixed, precision, device, width, report_samples, seed)
+    minv = np.asarray(minv, float).reshape(c.n, 3, 3)
+    return c.table(minv, c.errors(minv), {"fit": "given matrices"})
+
+
+def ltc_matrix(table, *index) -> np.ndarray:
+    """The normalised M^-1 (3, 3) of one cell of a fit_ltc table (or (..., 3, 3) for all)."""
+    v = np.stack([table[k] for k in ENTRIES], axis=-1)
+    v = v[index] if index else v
+    return v.reshape(v.shape[:-1] + (3, 3))
+
+
+__all__ = ["fit_ltc", "ltc_errors", "ltc_matrix", "nelder_mead"]
