@@ -5,6 +5,7 @@ The public namespace. The package's layers, each importing only those below it
 ``ref`` -> ``models``; the kernels (``clbrdf.kernels``, C headers) under all of them.
 """
 from .api.albedo import AlbedoResult, albedo, albedo_avg, fresnel_avg
+from .api.ltc import fit_ltc, ltc_errors
 from .api.model import Model, model
 from .api.useless import UselessEstimatorWarning
 from .models import MODELS, presets
@@ -22,6 +23,6 @@ from .version import __version__
 
 __all__ = ["AlbedoResult", "DeviceError", "MODELS", "Model", "ParameterError", "Table",
            "TargetStderrWarning", "UselessEstimatorWarning", "WidthFallbackWarning",
-           "__version__", "albedo", "albedo_avg", "albedo_table", "check", "fresnel_avg",
-           "get_device", "get_include", "list_devices", "load_tables", "make_layout", "model",
+           "__version__", "albedo", "albedo_avg", "albedo_table", "check", "fit_ltc", "fresnel_avg",
+           "get_device", "get_include", "list_devices", "load_tables", "ltc_errors", "make_layout", "model",
            "open_sweep", "presets", "save_tables", "sweep"]

@@ -183,3 +183,51 @@ def test_polygon_error_within_l1(ggx_cells):
             assert abs(lt - own) <= E * L1 + 5 * se, (t, a, lt, own, L1)
             checked += abs(own) > 1e-3
     assert checked > 10
+
+
+def test_threejs_files(ggx_cells, tmp_path):
+    """The threejs layout's files of a fit: the ES module loads in Node (a stub 'three') and
+    hands three.js's DataTexture the texels in order; the C header compiles and holds the same
+    values; the .npz the same with the per-cell errors."""
+    import shutil
+    import subprocess
+    from clbrdf.tables.ltc_layouts import save_ltc, textures
+    _, fit, _ = ggx_cells
+    tex = textures("threejs", fit)
+    files = save_ltc("threejs", fit, tex, [tmp_path / "ltc.js", tmp_path / "ltc.h",
+                                            tmp_path / "ltc.npz"])
+    assert [f.name for f in files] == ["ltc.js", "ltc.h", "ltc.npz"]
+    want = tex["LTC_MAT_1"].astype(np.float32).reshape(-1)
+    z = np.load(tmp_path / "ltc.npz")
+    assert np.array_equal(z["LTC_MAT_1"].reshape(-1), want)
+    assert np.array_equal(z["L1"], fit["L1"])
+    if shutil.which("node"):
+        stub = tmp_path / "node_modules" / "three"
+        stub.mkdir(parents=True)
+        (stub / "package.json").write_text('{"name": "three", "type": "module", "main": "index.js"}')
+        (stub / "index.js").write_text(
+            "export class DataTexture { constructor(d, w, h) { this.data = d; this.w = w; "
+            "this.h = h; } }\nexport const DataUtils = { toHalfFloat: (x) => 0 };\n"
+            + "".join(f"export const {k} = '{k}';\n" for k in
+                      ("ClampToEdgeWrapping", "FloatType", "HalfFloatType", "LinearFilter",
+                       "NearestFilter", "RGBAFormat", "UVMapping")))
+        (tmp_path / "package.json").write_text('{"type": "module"}')
+        (tmp_path / "run.js").write_text(
+            "import { RectAreaLightTexturesLib as L } from './ltc.js';\nconst t = L.init();\n"
+            "console.log(JSON.stringify([t.LTC_FLOAT_1.w, t.LTC_FLOAT_1.h, "
+            "Array.from(t.LTC_FLOAT_1.data)]));\n")
+        out = subprocess.run(["node", "run.js"], cwd=tmp_path, capture_output=True, text=True,
+                             check=True).stdout
+        import json
+        w, h, data = json.loads(out)
+        assert (h, w) == tex["LTC_MAT_1"].shape[:2]
+        assert np.array_equal(np.float32(data), want)
+    if shutil.which("gcc"):
+        (tmp_path / "main.c").write_text(
+            '#include <stdio.h>\n#include "ltc.h"\nint main(void) { for (int i = 0; i < '
+            f'{want.size}; ++i) printf("%.9g\\n", LTC_MAT_1[i]); return 0; }}\n')
+        subprocess.run(["gcc", "-std=c99", "-Wall", "-Werror", "-o", "main", "main.c"],
+                       cwd=tmp_path, check=True)
+        got = np.float32(subprocess.run(["./main"], cwd=tmp_path, capture_output=True,
+                                        text=True, check=True).stdout.split())
+        assert np.array_equal(got, want)

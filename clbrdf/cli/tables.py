@@ -253,6 +253,57 @@ def _table_summary(t, seconds: float, written) -> str:
     return "\n".join(lines)
 
 
+def cmd_ltc(args) -> int:
+    from ..tables.ltc_layouts import check_ltc_out, ltc_layout, ltc_layouts, save_ltc
+    outs = [Path(o) for o in args.out]
+    if args.preset:
+        raise ParameterError("--preset is a published RGB fit; an LTC fits one channel: give "
+                             "its parameters with --param")
+    cmd = " ".join(["clbrdf"] + [quote(a) for a in args.argv])
+    kw = dict(samples=args.samples, report_samples=args.report_samples, seed=args.seed,
+              precision=args.precision, device=args.device, width=args.width, command=cmd)
+    t0 = time.perf_counter()
+    if args.layout:
+        if args.axis:
+            raise ParameterError("--layout names the axes itself: give no --axis with it")
+        for o in outs:
+            check_ltc_out(o)
+        name = args.model or ltc_layouts()[args.layout]["model"]
+        params = parse_params(spec_of(name), args.param)
+        model_for(name, args, params)
+        table, tex = ltc_layout(args.layout, name, **kw, **params)
+        written = save_ltc(args.layout, table, tex, outs)
+    else:
+        if args.model is None or not args.axis:
+            raise ParameterError("give MODEL and its axes (--axis sqrt1m_mu=0:1:64 --axis "
+                                 "r=0:1:64:min=0.01), or --layout NAME")
+        spec = spec_of(args.model)
+        params = parse_params(spec, args.param)
+        for o in outs:
+            check_out(o)
+        axes = {}
+        for text in args.axis:
+            ax = parse_axis(text)
+            if ax["name"] in axes:
+                raise ParameterError(f"axis {ax['name']} is given twice")
+            axes[ax["name"]] = ax
+        table_axes(spec, axes, params, args.precision)
+        model_for(spec.name, args, params)
+        from ..api.ltc import fit_ltc
+        table = fit_ltc(spec.name, axes, **kw, **params)
+        written = save_tables({"ltc": table}, outs, prefix=c_name(spec.name), chart=False)
+    c = table.computed
+    e1, se1 = np.asarray(table["L1"]), np.asarray(table["L1_stderr"])
+    i = np.unravel_index(int(np.argmax(e1)), e1.shape)
+    at = ", ".join(f"{n}={table[n][k]:.3g}" for n, k in zip(table.axis_names, i))
+    print(f"{c['model']} LTC fit: {' x '.join(str(n) for n in table.shape)} cells, "
+          f"{c['samples']} samples per loss, {c['iterations_mean']} Nelder-Mead iterations per "
+          f"cell on average, {c['device']}: {time.perf_counter() - t0:.1f} s\n"
+          f"  relative L1 error of the LTC: median {np.median(e1):.3g}, max {e1.max():.3g} "
+          f"+- {se1[i]:.1g} ({at})\n  wrote {', '.join(map(str, written))}")
+    return 0
+
+
 def add_parsers(sub) -> None:
     dev = dev_parent()
 
@@ -303,6 +354,32 @@ def add_parsers(sub) -> None:
                    help="samples per direct estimate of E_ss (default 2^20)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_furnace)
+
+    p = sub.add_parser("ltc", parents=[dev], help="LTC tables (linearly transformed cosines) "
+                       "fitted to a model, for area lights",
+                       description="Per cell of the grid: the LTC (Heitz et al. 2016) fitted to "
+                                   "the model's lobe f cos / E (its M^-1, normalised), the "
+                                   "magnitude E, the Schlick split's B term, and the fit's L3 "
+                                   "and relative L1 errors with their standard errors "
+                                   "(clbrdf.fit_ltc). --layout NAME writes an engine's textures "
+                                   "(threejs: .js ES module, .h, .npz); without it, the fit as a "
+                                   "table (.npz, .csv, .h, .exr).")
+    model_arg(p, "with --layout: default the layout's")
+    p.add_argument("--layout", choices=["threejs"], default=None,
+                   help="an engine's LTC textures in its layout")
+    p.add_argument("--axis", action="append", default=[], metavar="NAME=START:STOP:COUNT",
+                   help="a grid axis: mu, theta or sqrt1m_mu (mu = 1 - v^2), r (alpha = r^2) or "
+                        "a numeric parameter (as 'clbrdf table --axis'); repeat for each axis")
+    p.add_argument("--samples", "-n", type=int, default=1024, metavar="N",
+                   help="quasi-random samples per loss evaluation (default 1024)")
+    p.add_argument("--report-samples", type=int, default=1 << 16, metavar="N",
+                   help="Philox samples of E, B and the reported errors (default 2^16)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--precision", choices=("single", "double"), default="single")
+    p.add_argument("--width", type=int, default=None, help="lanes per work-item")
+    p.add_argument("--out", "-o", required=True, metavar="FILE", action="append",
+                   help="output file; may be repeated")
+    p.set_defaults(func=cmd_ltc)
 
     p = sub.add_parser("layouts", help="the renderers' table layouts of 'clbrdf table --layout'")
     p.add_argument("--json", action="store_true", help="print one JSON object")
