@@ -5,7 +5,6 @@ The public namespace. The package's layers, each importing only those below it
 ``ref`` -> ``models``; the kernels (``clbrdf.kernels``, C headers) under all of them.
 """
 from .api.albedo import AlbedoResult, albedo, albedo_avg, fresnel_avg
-from .api.ltc import fit_ltc, ltc_errors
 from .api.model import Model, model
 from .api.useless import UselessEstimatorWarning
 from .models import MODELS, presets
@@ -18,6 +17,7 @@ from .studies.sweep import open_sweep, sweep
 from .tables.compute import TargetStderrWarning, albedo_table
 from .tables.files import save_tables
 from .tables.layouts import make_layout
+from .tables.ltc import fit_ltc, ltc_errors
 from .tables.table import Table, load_tables
 from .version import __version__
 

@@ -118,7 +118,7 @@ CELLS = [(0, 32), (16, 8), (32, 63), (40, 20), (48, 40), (56, 50), (63, 30)]
 
 @pytest.fixture(scope="module")
 def ggx_cells():
-    from clbrdf.api.ltc import fit_ltc, ltc_errors
+    from clbrdf.tables.ltc import fit_ltc, ltc_errors
     axes = {"sqrt1m_mu": [min(t / 63, 0.999602) for t, _ in CELLS], "r": sorted({a / 63 for _, a in CELLS})}
     fit = fit_ltc("ggx", axes)
     minv = np.zeros((len(axes["sqrt1m_mu"]), len(axes["r"]), 3, 3))
@@ -160,7 +160,7 @@ def test_polygon_error_within_l1(ggx_cells):
     (2^20 BRDF samples). |E int_P D - int_P f cos| <= E int |t - D| = E L1, so the difference
     must stay within E L1 (+ 5 standard errors of both estimates)."""
     import clbrdf
-    from clbrdf.api.ltc import ltc_matrix
+    from clbrdf.tables.ltc import ltc_matrix
     axes, fit, _ = ggx_cells
     rng = np.random.default_rng(7)
     _, quads = random_cases(12, seed=11)

@@ -22,6 +22,8 @@ from ..tables.layouts import (
     layouts as _layouts,
     make_layout,
 )
+from ..tables.ltc import fit_ltc
+from ..tables.ltc_layouts import check_ltc_out, ltc_layout, ltc_layouts, save_ltc
 from ..tables.table import DIRECTION_AXES, load_tables
 from .common import (
     Terminated,
@@ -254,7 +256,6 @@ def _table_summary(t, seconds: float, written) -> str:
 
 
 def cmd_ltc(args) -> int:
-    from ..tables.ltc_layouts import check_ltc_out, ltc_layout, ltc_layouts, save_ltc
     outs = [Path(o) for o in args.out]
     if args.preset:
         raise ParameterError("--preset is a published RGB fit; an LTC fits one channel: give "
@@ -289,7 +290,6 @@ def cmd_ltc(args) -> int:
             axes[ax["name"]] = ax
         table_axes(spec, axes, params, args.precision)
         model_for(spec.name, args, params)
-        from ..api.ltc import fit_ltc
         table = fit_ltc(spec.name, axes, **kw, **params)
         written = save_tables({"ltc": table}, outs, prefix=c_name(spec.name), chart=False)
     c = table.computed

@@ -5,16 +5,17 @@ were computed).
 """
 from __future__ import annotations
 
+import io
 import json
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
-from ..api.ltc import fit_ltc
 from ..models.spec import ParameterError
 from ..version import __version__
 from .axes import parse_axis
+from .ltc import fit_ltc
 from .outputs import probe_directory, write_together
 
 SUFFIXES = (".js", ".h", ".npz")
@@ -141,7 +142,6 @@ def c_text(name: str, table, tex: dict) -> str:
 
 
 def npz_bytes(name: str, table, tex: dict) -> bytes:
-    import io
     buf = io.BytesIO()
     arrays = {k: v.astype(np.float32) for k, v in tex.items()}
     for q in ("E", "B", "L3", "L1"):

@@ -27,12 +27,15 @@ import time
 
 import numpy as np
 
+from ..api.model import Model
 from ..models import get_spec
 from ..models.spec import ParameterError, check_int
 from ..runtime.launch import derive_seed, environment
 from ..runtime.ltc import LTCRunner
 from ..version import __version__
-from .model import Model
+from . import axes as ax_mod
+from .compute import table_axes
+from .table import Table
 
 ENTRIES = tuple(f"minv{r}{c}" for r in range(3) for c in range(3))
 QUANTITIES = ENTRIES + ("E", "B", "L3", "L1")
@@ -175,8 +178,6 @@ class _Cells:
     samples per cell."""
 
     def __init__(self, name, axes, fixed, precision, device, width, N, seed):
-        from ..tables import axes as ax_mod
-        from ..tables.compute import table_axes
         spec = get_spec(name)
         if spec.transmits:
             raise ParameterError(f"fit_ltc: {name} transmits; an LTC approximates a reflection "
@@ -243,7 +244,6 @@ class _Cells:
         return L3, L3_se, L1, L1_se
 
     def table(self, minv, errors, meta):
-        from ..tables.table import Table
         n = self.n
         minv_n = minv / minv[:, 1:2, 1:2]
         L3, L3_se, L1, L1_se = errors
