@@ -283,6 +283,7 @@ def fit_ltc(name: str, axes: dict, *, samples: int = 1024, report_samples: int =
     restarts = check_int("restarts", restarts, 0, 100)
     t0 = time.perf_counter()
     c = _Cells(name, axes, fixed, precision, device, width, report_samples, seed)
+    t1 = time.perf_counter()
     loss = _Fit(LTCRunner(c.model, c.wo, "sobol"), c.frames, c.E, c.scale, samples,
                 derive_seed(seed, 2))
     x, fx, its = nelder_mead(loss, c.x0, c.steps, max_iter=max_iter)
@@ -293,14 +294,18 @@ def fit_ltc(name: str, axes: dict, *, samples: int = 1024, report_samples: int =
         x[better], fx[better] = x2[better], f2[better]
         its += its2
     _, minv = _matrices(c.frames, x)
+    t2 = time.perf_counter()
     errors = c.errors(minv)
+    t3 = time.perf_counter()
     meta = {"fit": "Nelder-Mead on (log a, log b, c, t), M = [X Y Z] Ry(t) [[a, 0, c], "
                    "[0, b, 0], [0, 0, 1]] (clbrdf/api/ltc.py)",
             "loss": "L3 = int |f cos / E - D|^3 dw, MIS of the lobe's and the LTC's samples",
             "samples": samples, "max_iter": max_iter, "restarts": restarts, "iterations_max": int(its.max()),
             "iterations_mean": round(float(its.mean()), 2),
             "loss_evaluations": int(loss.evaluations),
-            "seconds": round(time.perf_counter() - t0, 3), **({"command": command} if command else {})}
+            "seconds": round(t3 - t0, 3), "seconds_moments": round(t1 - t0, 3),
+            "seconds_fit": round(t2 - t1, 3), "seconds_report": round(t3 - t2, 3),
+            **({"command": command} if command else {})}
     return c.table(minv, errors, meta)
 
 
