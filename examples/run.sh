@@ -8,7 +8,8 @@
 # cuda_albedo (nvcc; run only where a CUDA device answers); c99_albedo and cuda_albedo also
 # sample rough glass (ggx_dielectric, from both sides) against `clbrdf albedo ggx_dielectric`;
 # energy_compensation (gcc and a
-# generated Cycles-layout header). The albedo examples draw the same samples as
+# generated Cycles-layout header); ltc_quad (gcc and a generated Charlie LTC table: a quad light
+# shaded with ltc_polygon, against the same lookup and clbrdf.ref.ltc in Python). The albedo examples draw the same samples as
 # `clbrdf albedo ggx --estimator brdf --width 1` (clbrdf_random2): they must agree with it to
 # TOL relative (summation order; the estimate's own standard error is 3.6e-4 relative), and the
 # header's lookup with clbrdf.Table.lookup to the 6 decimals the example prints. Exit 1 on any disagreement; an example this
@@ -96,6 +97,24 @@ if command -v gcc >/dev/null; then
 import clbrdf
 print(clbrdf.Table.load('$OUT/ggx_E.npz', 'table_ggx_E').lookup(0.5, 0.75))")
     compare "energy_compensation" "$e" "$want" 1.5e-6     # it prints 6 decimals
+    echo "                       ($line)"
+fi
+if command -v gcc >/dev/null; then
+    "$PY" -m clbrdf ltc charlie --axis sqrt1m_mu=0:1:8:max=0.999602 --axis alpha=0.05:1:8 \
+        --samples 256 --report-samples 4096 --out "$OUT/charlie_ltc.h" --out "$OUT/charlie_ltc.npz" >/dev/null
+    gcc -std=c99 -Wall -Wextra -Werror -I "$INC" -I "$OUT" "$ROOT"/examples/ltc_quad.c -lm \
+        -o "$OUT/ltc_quad"
+    line=$("$OUT/ltc_quad" 0.6 0.4)
+    want=$("$PY" -c "
+import numpy as np, clbrdf
+from clbrdf.ref.ltc import ltc_polygon
+t = clbrdf.Table.load('$OUT/charlie_ltc.npz', 'ltc')
+v = np.sqrt(1 - 0.6)
+r = t.lookup(v, 0.4)
+m = np.asarray(r[:9], float).reshape(3, 3)
+q = np.array([[0.5, -0.5, 0.5], [1.5, -0.5, 0.5], [1.5, 0.5, 1.0], [0.5, 0.5, 1.0]])
+print(r[9] * ltc_polygon(m, q))")
+    compare "ltc_quad" "${line%% *}" "$want" 2e-6
     echo "                       ($line)"
 fi
 exit $fail

@@ -19,6 +19,9 @@
  * clbrdf_NAME_defaults(), clbrdf_NAME_eval, clbrdf_NAME_pdf, clbrdf_NAME_sample. The functions
  * are the ones the Python package's kernels run (one lane per call here).
  *
+ * ltc.h's LTC functions come with it (mat3r, ltc_eval, ltc_sample, ltc_polygon: an area light
+ * shaded with a fitted table, `clbrdf ltc`; examples/ltc_quad.c).
+ *
  * In C++ and CUDA everything is in namespace clbrdf. The microfacet models take one
  * configuration per translation unit (MF_DIST, MF_FRESNEL, ...). gtr, sgd, exppow,
  * holzschuch_pacanowski and sgd_bagher read generated tables: set params.tables to the buffer
@@ -38,6 +41,7 @@ namespace clbrdf {
 #include "common.h"
 #include "rng.h"
 #include "warp.h"
+#include "ltc.h"               /* linearly transformed cosines: ltc_eval, ltc_sample, ltc_polygon */
 
 /* Four numbers in (0, 1) for sample `sample` of point `point`, stream `stream`, from a 64-bit
  * seed: Philox4x32-10 keyed as the Python package keys its estimators (rng.h). */

@@ -258,8 +258,9 @@ class _Cells:
                     "width": m.width, "clbrdf": __version__, "environment": environment()}
         q = len(QUANTITIES)
         return Table(name="ltc", axes=self.axl, quantity=list(QUANTITIES),
-                     raw=vals.reshape(self.shape + (q,)), stderr=errs.reshape(self.shape + (q,)),
-                     encoding="float64", meta={"computed": computed})
+                     raw=vals.reshape(self.shape + (q,)).astype(np.float32),
+                     stderr=errs.reshape(self.shape + (q,)), encoding="float32",
+                     meta={"computed": computed})
 
 
 def fit_ltc(name: str, axes: dict, *, samples: int = 1024, report_samples: int = 1 << 16,
