@@ -273,7 +273,7 @@ def cmd_ltc(args) -> int:
         params = parse_params(spec_of(name), args.param)
         model_for(name, args, params)
         table, tex = ltc_layout(args.layout, name, **kw, **params)
-        written = save_ltc(args.layout, table, tex, outs)
+        written = save_ltc(args.layout, table, tex, outs, chart=True)
     else:
         if args.model is None or not args.axis:
             raise ParameterError("give MODEL and its axes (--axis sqrt1m_mu=0:1:64 --axis "
@@ -291,7 +291,7 @@ def cmd_ltc(args) -> int:
         table_axes(spec, axes, params, args.precision)
         model_for(spec.name, args, params)
         table = fit_ltc(spec.name, axes, **kw, **params)
-        written = save_tables({"ltc": table}, outs, prefix=c_name(spec.name), chart=False)
+        written = save_tables({"ltc": table}, outs, prefix=c_name(spec.name))
     c = table.computed
     e1, se1 = np.asarray(table["L1"]), np.asarray(table["L1_stderr"])
     i = np.unravel_index(int(np.argmax(e1)), e1.shape)

@@ -139,6 +139,8 @@ def figure(table: Table):
     of the first other axis, further axes at their first value."""
     if table.average is not None and "axes" in table.computed:
         return albedo_figure(table)
+    if table.computed.get("quantity") == "ltc" and len(table.shape) == 2:
+        return ltc_figure(table)
     import matplotlib
     from matplotlib.figure import Figure
     names = table.axis_names
@@ -180,6 +182,33 @@ def figure(table: Table):
         ax.grid(alpha=0.3)
         if label:
             ax.legend(fontsize=7)
+    return fig
+
+
+def ltc_figure(table: Table):
+    """The error map of an LTC fit (clbrdf.fit_ltc) over its two axes: the relative L1 error
+    of the LTC per cell (log colour scale), its standard error's share, and the magnitude E."""
+    from matplotlib import colors
+    from matplotlib.figure import Figure
+    meta = table.computed
+    n0, n1 = table.axis_names
+    x, y = table[n1], table[n0]
+    fig = Figure(figsize=(13, 4.2), dpi=100, layout="constrained")
+    axs = fig.subplots(1, 3)
+    L1, se = np.asarray(table["L1"]), np.asarray(table["L1_stderr"])
+    panels = [(L1, "relative L1 error of the LTC, int |f cos / E - D| dw",
+               colors.LogNorm(vmin=max(L1[L1 > 0].min(), 1e-4), vmax=max(L1.max(), 1e-3))),
+              (se / np.maximum(L1, 1e-12), "its standard error / L1", None),
+              (np.asarray(table["E"]), "magnitude E = int f cos dw", None)]
+    for ax, (v, title, norm) in zip(axs, panels):
+        im = ax.pcolormesh(x, y, v, shading="nearest", norm=norm, cmap="viridis")
+        fig.colorbar(im, ax=ax)
+        ax.set_title(title, fontsize=9)
+        ax.set_xlabel(n1)
+        ax.set_ylabel(n0)
+    fig.suptitle(f"LTC fit: {meta.get('model')}, {meta.get('samples')} samples per loss, "
+                 f"{meta.get('report_samples')} per reported error, {meta.get('precision')} "
+                 f"precision; L1 median {np.median(L1):.3g}, max {L1.max():.3g}", fontsize=10)
     return fig
 
 

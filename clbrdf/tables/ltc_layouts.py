@@ -16,6 +16,7 @@ from ..models.spec import ParameterError
 from ..version import __version__
 from .axes import parse_axis
 from .ltc import fit_ltc
+from .chart import figure_png
 from .outputs import probe_directory, write_together
 
 SUFFIXES = (".js", ".h", ".npz")
@@ -168,9 +169,12 @@ def check_ltc_out(out) -> Path:
     return out
 
 
-def save_ltc(name: str, table, tex: dict, outs) -> list:
-    """Write the layout's files together (a kill leaves the old files or the new ones)."""
+def save_ltc(name: str, table, tex: dict, outs, chart: bool = False) -> list:
+    """Write the layout's files together (a kill leaves the old files or the new ones), with
+    the fit's error map (FILE.png beside the first) if ``chart``."""
     writers = {".js": js_text, ".h": c_text, ".npz": npz_bytes}
     files = {Path(o): writers[Path(o).suffix.lower()](name, table, tex) for o in outs}
+    if chart:
+        files[Path(outs[0]).with_suffix(".png")] = figure_png({"ltc": table})
     write_together(files)
     return list(files)
