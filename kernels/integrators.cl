@@ -8,7 +8,7 @@
  *   CHANNELS    1, or 3 (RGB): a model's value and weight have CHANNELS components
  *   KERNELS     KERNELS_BATCH (eval_batch, pdf_batch, sample_batch), KERNELS_ALBEDO
  *               (albedo_blocks), KERNELS_QUADRATURE (quadrature_panels), KERNELS_LTC
- *               (ltc_moments, ltc_loss: the fit of kernels/ltc.h) or KERNELS_RANDOM
+ *               (ltc_moments, ltc_loss: the fit of kernels/ltc.h, clbrdf/tables/ltc.py) or KERNELS_RANDOM
  *               (random_batch: no model, no Params)
  *   MODEL       the model's function prefix (lambert, microfacet, ...)
  *   ESTIMATOR   ESTIMATOR_UNIFORM | ESTIMATOR_COSINE | ESTIMATOR_BRDF | ESTIMATOR_MIS (albedo)
@@ -550,7 +550,7 @@ __kernel void quadrature_panels(const global real_t *P, Tables TABLES, const glo
 
 #if KERNELS == KERNELS_LTC
 
-/* ---- fitting linearly transformed cosines (kernels/ltc.h) to a lobe: clbrdf/api/ltc.py ----
+/* ---- fitting linearly transformed cosines (kernels/ltc.h) to a lobe: clbrdf/tables/ltc.py ----
  * The lobe of a cell is its (wo, parameters) point's f(wo, wi) cos(theta_i) over wi, first
  * channel; the numbers of sample k of cell c are RNG(k, c, 0, seed) for every launch and every
  * candidate matrix, so that a fit sees one deterministic loss (common random numbers). */

@@ -1,5 +1,5 @@
 """The LTC fit's launches (kernels/integrators.cl, ltc_moments and ltc_loss): many cells, and
-many candidate matrices per cell, per launch; the host (clbrdf/api/ltc.py) only steers.
+many candidate matrices per cell, per launch; the host (clbrdf/tables/ltc.py) only steers.
 """
 from __future__ import annotations
 

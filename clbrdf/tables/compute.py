@@ -95,7 +95,7 @@ def table_axes(spec, axes, fixed=None, precision: str = "single", spacing=None) 
             hint = ("" if ax.get("min") is not None or ax.get("max") is not None
                     or ax.get("spacing") == "list" else
                     "; an axis can keep its values and be evaluated at max(value, LO) with "
-                    ":min=LO")
+                    ":min=LO, or at min(value, HI) with :max=HI")
             raise ParameterError(f"axis {ax_mod.axis_text(ax)}: {e}{hint}") from None
     return out
 

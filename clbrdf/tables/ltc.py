@@ -7,12 +7,15 @@ Per cell (a view angle and parameter values):
   lobe's mean direction and its second moments;
 - the start: the frame of the mean direction (Heitz's X, Y, Z: y kept out for an isotropic
   model) and the scales a, b whose transformed cosine has the lobe's second moments in that
-  frame (``_scale_of_moment``), or the best of a few variants of it (``best_start``), so that
+  frame (along the moments' principal axes, turned by psi about Z, for an anisotropic model or
+  a phi axis) (``_scale_of_moment``), or the best of a few variants of it (``best_start``), so that
   no cell waits for a neighbour and the fit runs in parallel;
 - Nelder-Mead over (log a, log b, c, t) with M = [X Y Z] Ry(t) [[a, 0, c], [0, b, 0], [0, 0, 1]]
   (ltc_code's parametrisation, whose frame stays at the mean direction, and the turn t of the
   frame about Y: all four free entries; without t the fit was up to 1.4x worse in L3 than
-  ltc_code's shipped GGX table at r > 0.8, whose frame came from its own noisy mean), in lockstep for all cells: each step is one or two kernel
+  ltc_code's shipped GGX table at r > 0.8, whose frame came from its own noisy mean); for an
+  anisotropic lobe also (d, psi): M = [X Y Z] Ry(t) Rz(psi) [[a, 0, c], [0, b, d], [0, 0, 1]];
+  in lockstep for all cells: each step is one or two kernel
   launches of one candidate per active cell, each the L3 error between lobe and LTC estimated
   with the same ``samples`` quasi-random numbers per cell (common random numbers: a
   deterministic loss that the simplex can converge on);
@@ -66,14 +69,19 @@ def _scale_of_moment(s):
     return np.exp((lo + hi) / 2)
 
 
-def _frames(mean, isotropic: bool):
-    """(n, 3, 3) rotations [X Y Z] (columns) with Z the lobe's mean direction."""
+def _frames(mean, isotropic: bool, ref=None):
+    """(n, 3, 3) rotations [X Y Z] (columns) with Z the lobe's mean direction and X in the plane
+    of Z and the reference direction ``ref`` (n, 3) (default x: wo's plane at phi = 0), so that
+    a lobe seen at another azimuth gets the same frame, turned."""
     z = np.array(mean, float)
     if isotropic:
         z[:, 1] = 0
     nz = np.linalg.norm(z, axis=1)
     z = np.where(nz[:, None] > 0, z / np.where(nz > 0, nz, 1)[:, None], [0.0, 0.0, 1.0])
-    x = np.stack([z[:, 2], np.zeros(len(z)), -z[:, 0]], axis=1)
+    if ref is None:
+        ref = np.broadcast_to([1.0, 0.0, 0.0], z.shape)
+    y = np.cross(z, ref)
+    x = np.cross(y, z)
     nx = np.linalg.norm(x, axis=1)
     x = np.where(nx[:, None] > 1e-12, x / np.where(nx > 0, nx, 1)[:, None], [1.0, 0.0, 0.0])
     y = np.cross(z, x)
@@ -83,7 +91,9 @@ def _frames(mean, isotropic: bool):
 def _matrices(frames, x):
     """M = R Ry(t) S(a, b, c) and M^-1 for parameters x = (log a, log b, c, t) (n, 4): the
     frame R turned by t about its Y axis; the four free entries of an isotropic LTC (M^-1 in the
-    x-z plane, normalised by its middle element)."""
+    x-z plane, normalised by its middle element). With x (n, 6) = (..., d, psi), anisotropic:
+    M = R Ry(t) Rz(psi) S(a, b, c, d), S = [[a, 0, c], [0, b, d], [0, 0, 1]]: the lobe's
+    principal axes turned by psi about its mean direction, and a shear along each."""
     n = len(x)
     ct, st = np.cos(x[:, 3]), np.sin(x[:, 3])
     ry = np.zeros((n, 3, 3))
@@ -94,6 +104,12 @@ def _matrices(frames, x):
     s[:, 1, 1] = np.exp(x[:, 1])
     s[:, 0, 2] = x[:, 2]
     s[:, 2, 2] = 1
+    if x.shape[1] == 6:
+        s[:, 1, 2] = x[:, 4]
+        cp, sp = np.cos(x[:, 5]), np.sin(x[:, 5])
+        rz = np.zeros((n, 3, 3))
+        rz[:, 0, 0], rz[:, 0, 1], rz[:, 1, 0], rz[:, 1, 1], rz[:, 2, 2] = cp, -sp, sp, cp, 1
+        frames = frames @ rz
     m = frames @ s
     return m, np.linalg.inv(m)
 
@@ -186,27 +202,25 @@ class _Cells:
             raise ParameterError("fit_ltc fits one channel: leave channels at 1")
         self.axl = table_axes(spec, axes, fixed, precision)
         names = self.names = [a["name"] for a in self.axl]
-        if "phi" in names:
-            raise ParameterError("fit_ltc: a phi axis needs the anisotropic fit (all 5 entries "
-                                 "of M^-1), which is not built yet; fit an isotropic model")
         evals = {a["name"]: ax_mod.evaluated(a) for a in self.axl}
         target = {k: ax_mod.MAPPED[k][0] if k in ax_mod.MAPPED else k for k in names}
         grids = dict(zip(names, np.meshgrid(*[evals[k] for k in names], indexing="ij")))
         self.shape = grids[names[0]].shape
         view = next(k for k in names if k in ax_mod.VIEW)
         mu = self.mu = grids[view].reshape(-1)
-        self.params = {target[k]: grids[k].reshape(-1) for k in names if k != view}
+        phi = grids["phi"].reshape(-1) if "phi" in grids else np.zeros(mu.size)
+        self.params = {target[k]: grids[k].reshape(-1) for k in names if k not in (view, "phi")}
         m = self.model = Model(name, precision=precision, device=device, width=width, **fixed,
                                **self.params)
-        if m.anisotropic:
-            raise ParameterError(f"fit_ltc: {name} with these parameters is anisotropic; the "
-                                 f"anisotropic fit (5 entries of M^-1) is not built yet")
+        iso = self.isotropic = not (m.anisotropic or "phi" in names)
         n = self.n = mu.size
-        self.wo = np.stack([np.sqrt((1 - mu) * (1 + mu)), np.zeros(n), mu], axis=1)
+        st = np.sqrt((1 - mu) * (1 + mu))
+        self.wo = np.stack([st * np.cos(phi), st * np.sin(phi), mu], axis=1)
         self.indep = LTCRunner(m, self.wo, "philox")
         self.N, self.seed = N, seed
         first = self.indep.moments(min(N, 1 << 12), derive_seed(seed, 0))
-        self.frames = _frames(first[:, 3:6], isotropic=True)
+        self.azimuth = np.stack([np.cos(phi), np.sin(phi), np.zeros(n)], axis=1)
+        self.frames = _frames(first[:, 3:6], isotropic=iso, ref=self.azimuth)
         mom = self.indep.moments(N, derive_seed(seed, 1), self.frames)
         E = self.E = mom[:, 0] / N
         self.E_se = np.sqrt(np.maximum(mom[:, 1] / N - E * E, 0) / (N - 1))
@@ -218,17 +232,24 @@ class _Cells:
             raise ParameterError(f"fit_ltc: the lobe is empty (E = {E[i]:g}) at mu={mu[i]:g}, {at}")
         # the frame of the accurate mean (in the first frame), and the moments turned into it
         mean_local = mom[:, 3:6] / mom[:, 0:1]
-        rot = _frames(mean_local, isotropic=True)          # local frame -> refined frame
+        rot = _frames(mean_local, isotropic=iso)           # local frame -> refined frame
+        # (in the first frame, x is already wo's azimuth plane)
         self.frames = self.frames @ rot
         S = np.zeros((n, 3, 3))
         for (i, j), col in zip([(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)], range(6, 12)):
             S[:, i, j] = S[:, j, i] = mom[:, col] / mom[:, 0]
         local = np.einsum("nki,nkl,nlj->nij", rot, S, rot)     # rot^T S rot
-        a = _scale_of_moment(local[:, 0, 0])
-        b = _scale_of_moment(local[:, 1, 1])
-        self.x0 = np.stack([np.log(a), np.log(b), np.zeros(n), np.zeros(n)], axis=1)
-        self.steps = np.stack([np.full(n, 0.1), np.full(n, 0.1), np.minimum(0.1 * a, 0.1),
-                               np.minimum(0.1 * a, 0.05)], axis=1)
+        sxx, syy, sxy = local[:, 0, 0], local[:, 1, 1], local[:, 0, 1]
+        psi = np.zeros(n) if iso else 0.5 * np.arctan2(2 * sxy, sxx - syy)   # principal axes
+        c2, s2 = np.cos(psi) ** 2, np.sin(psi) ** 2
+        a = _scale_of_moment(c2 * sxx + s2 * syy + np.sin(2 * psi) * sxy)
+        b = _scale_of_moment(s2 * sxx + c2 * syy - np.sin(2 * psi) * sxy)
+        zero = np.zeros(n)
+        self.x0 = np.stack([np.log(a), np.log(b), zero, zero] + ([] if iso else [zero, psi]), 1)
+        steps = [np.full(n, 0.1), np.full(n, 0.1), np.minimum(0.1 * a, 0.1),
+                 np.minimum(0.1 * a, 0.05)]
+        self.steps = np.stack(steps + ([] if iso else [np.minimum(0.1 * b, 0.1),
+                                                        np.full(n, 0.1)]), axis=1)
         self.scale = np.pi * a * b                   # about 1 / max D of the start
 
     def best_start(self, loss):
@@ -241,11 +262,12 @@ class _Cells:
         z = self.frames[:, :, 2]
         back = np.arctan2(self.frames[:, 2, 0], z[:, 2])         # Ry(back) R^T-turns Z to z
         iso = (x0[:, 0] + x0[:, 1]) / 2
+        rest = [] if self.isotropic else [np.zeros(n), x0[:, 5]]      # d, psi
         starts = []
         for t in (np.zeros(n), back):
-            starts.append(np.stack([x0[:, 0], x0[:, 1], x0[:, 2], t], axis=1))
+            starts.append(np.stack([x0[:, 0], x0[:, 1], x0[:, 2], t] + rest, axis=1))
             for k in (0.0, -np.log(2), np.log(2)):
-                starts.append(np.stack([iso + k, iso + k, np.zeros(n), t], axis=1))
+                starts.append(np.stack([iso + k, iso + k, np.zeros(n), t] + rest, axis=1))
         cand = np.concatenate(starts)
         f = loss(np.tile(np.arange(n), len(starts)), cand).reshape(len(starts), n)
         best = np.argmin(f, axis=0)
@@ -287,8 +309,9 @@ def fit_ltc(name: str, axes: dict, *, samples: int = 1024, report_samples: int =
             seed: int = 0, precision: str = "single", device=None, width: int | None = None,
             max_iter: int = 600, restarts: int = 1, command: str | None = None, **fixed):
     """A table of LTC fits over the grid of ``axes`` (as ``clbrdf.albedo_table`` takes them: a
-    view axis ``mu``, ``theta`` or ``sqrt1m_mu``, ``r`` or ``alpha`` and any numeric
-    parameter), with fixed parameters and options in ``fixed``. Returns a ``clbrdf.Table``
+    view axis ``mu``, ``theta`` or ``sqrt1m_mu``, ``phi`` (wo's azimuth), ``r`` or ``alpha``
+    and any numeric parameter, alpha_x and alpha_y of an anisotropic model included), with
+    fixed parameters and options in ``fixed``. Returns a ``clbrdf.Table``
     named "ltc" whose quantities are the normalised M^-1 entries ``minv00`` .. ``minv22``
     (row-major, M^-1 / M^-1[1][1]), the magnitude ``E``, the Schlick split's ``B`` term (with
     F0: E(F0) = F0 (E - B) + B), the fit's ``L3`` error and the relative ``L1`` error, each with
@@ -318,8 +341,10 @@ def fit_ltc(name: str, axes: dict, *, samples: int = 1024, report_samples: int =
     t2 = time.perf_counter()
     errors = c.errors(minv)
     t3 = time.perf_counter()
-    meta = {"fit": "Nelder-Mead on (log a, log b, c, t), M = [X Y Z] Ry(t) [[a, 0, c], "
-                   "[0, b, 0], [0, 0, 1]] (clbrdf/api/ltc.py)",
+    meta = {"fit": ("Nelder-Mead on (log a, log b, c, t), M = [X Y Z] Ry(t) [[a, 0, c], "
+                    "[0, b, 0], [0, 0, 1]]" if c.isotropic else
+                    "Nelder-Mead on (log a, log b, c, t, d, psi), M = [X Y Z] Ry(t) Rz(psi) "
+                    "[[a, 0, c], [0, b, d], [0, 0, 1]]") + " (clbrdf/tables/ltc.py)",
             "loss": "L3 = int |f cos / E - D|^3 dw, MIS of the lobe's and the LTC's samples",
             "samples": samples, "max_iter": max_iter, "restarts": restarts, "iterations_max": int(its.max()),
             "iterations_mean": round(float(its.mean()), 2),
