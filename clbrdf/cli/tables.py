@@ -164,6 +164,17 @@ def _layout_table(args, outs) -> int:
     return 0
 
 
+def _axes(texts) -> dict:
+    """--axis texts -> {name: axis dict}, each name once."""
+    axes = {}
+    for text in texts:
+        ax = parse_axis(text)
+        if ax["name"] in axes:
+            raise ParameterError(f"axis {ax['name']} is given twice")
+        axes[ax["name"]] = ax
+    return axes
+
+
 def cmd_table(args) -> int:
     outs = [Path(o) for o in args.out]
     if args.layout:
@@ -179,12 +190,7 @@ def cmd_table(args) -> int:
     params = parse_params(spec, args.param)
     for o in outs:
         check_out(o)
-    axes = {}
-    for text in args.axis:
-        ax = parse_axis(text)
-        if ax["name"] in axes:
-            raise ParameterError(f"axis {ax['name']} is given twice")
-        axes[ax["name"]] = ax
+    axes = _axes(args.axis)
     fixed = {**params, **({"preset": args.preset} if args.preset else {})}
     # every axis against the model, and the model on the device, before any work
     table_axes(spec, axes, fixed, args.precision)
@@ -282,12 +288,7 @@ def cmd_ltc(args) -> int:
         params = parse_params(spec, args.param)
         for o in outs:
             check_out(o)
-        axes = {}
-        for text in args.axis:
-            ax = parse_axis(text)
-            if ax["name"] in axes:
-                raise ParameterError(f"axis {ax['name']} is given twice")
-            axes[ax["name"]] = ax
+        axes = _axes(args.axis)
         table_axes(spec, axes, params, args.precision)
         model_for(spec.name, args, params)
         table = fit_ltc(spec.name, axes, **kw, **params)
@@ -365,7 +366,7 @@ def add_parsers(sub) -> None:
                                    "(threejs: .js ES module, .h, .npz); without it, the fit as a "
                                    "table (.npz, .csv, .h, .exr).")
     model_arg(p, "with --layout: default the layout's")
-    p.add_argument("--layout", choices=["threejs"], default=None,
+    p.add_argument("--layout", choices=sorted(ltc_layouts()), default=None,
                    help="an engine's LTC textures in its layout")
     p.add_argument("--axis", action="append", default=[], metavar="NAME=START:STOP:COUNT",
                    help="a grid axis: mu, theta or sqrt1m_mu (mu = 1 - v^2), r (alpha = r^2) or "
