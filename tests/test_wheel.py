@@ -85,6 +85,13 @@ def test_every_command_runs_from_the_wheel(installed):
     _run([clbrdf, "sweep", "ggx", "--axis", "alpha=0.1:1:3", "--samples", "64", "--out",
           work / "s.zarr", "-q"], cwd=work)
     _run([clbrdf, "report", work / "s.zarr", "--out", work / "report"], cwd=work)
+    r = _run([clbrdf, "ltc", "--help"], cwd=work)          # the LTC layouts' data file ships
+    assert "threejs" in r.stdout
+    ltc = [work / f"ltc{s}" for s in (".npz", ".h")]
+    _run([clbrdf, "ltc", "charlie", "--axis", "sqrt1m_mu=0:0.9:3", "--axis", "alpha=0.2:1:2",
+          "--samples", "256", "--report-samples", "4096"]
+         + [a for o in ltc for a in ("--out", o)], cwd=work)
+    outs.append(ltc[0])
     # Table.load reads every file written, and the plain table looks up
     code = ("import sys, clbrdf\n"
             "for p in sys.argv[1:]:\n"
