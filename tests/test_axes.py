@@ -63,3 +63,21 @@ def test_midpoints_sit_halfway_in_index_space():
 def test_errors_name_the_problem(text, match):
     with pytest.raises(ParameterError, match=match):
         check_form(parse_axis(text))
+
+
+def test_view_axis_sqrt1m_mu_is_mu_in_another_form(tmp_path):
+    """sqrt1m_mu (ltc_code's and three.js's view axis, mu = 1 - v^2) through the whole table
+    path: the same cells as a mu axis at 1 - v^2, bit for bit (the same points and seeds), and a
+    chart and files written from it."""
+    import clbrdf
+    v = check_form(parse_axis("sqrt1m_mu=0:0.9:4"))
+    assert np.allclose(evaluated(v), 1 - np.linspace(0, 0.9, 4) ** 2)
+    a = clbrdf.albedo_table("ggx", {"sqrt1m_mu": "0:0.9:4", "alpha": [0.2, 0.6]}, samples=1024)
+    b = clbrdf.albedo_table("ggx", {"mu": list(1 - np.linspace(0, 0.9, 4) ** 2),
+                                    "alpha": [0.2, 0.6]}, samples=1024)
+    assert np.array_equal(a["E"], b["E"]) and np.array_equal(a["E_avg"], b["E_avg"])
+    assert np.array_equal(a["sqrt1m_mu"], np.linspace(0, 0.9, 4))
+    written = clbrdf.save_tables(a, [tmp_path / "v.npz", tmp_path / "v.h"])
+    assert (tmp_path / "v.png").exists() and len(written) == 3
+    back = clbrdf.Table.load(tmp_path / "v.npz")
+    assert np.allclose(back.lookup(sqrt1m_mu=0.3, alpha=0.2), a.lookup(sqrt1m_mu=0.3, alpha=0.2))
