@@ -268,6 +268,7 @@ def _moonray(name, shape):
     return np.array([float(x) for x in rows(f"moonray_transmission_{name}.csv")]).reshape(shape)
 
 
+@pytest.mark.slow       # 26 s cold; the MoonRay albedo layouts stay in the default run
 def test_moonray_glass_tables_against_its_shipped_tables():
     """MoonRay's rough-glass tables (TransmissionAlbedo.h, 33^3 E entering and exiting, 33^2
     1 - E_avg) against the layout (beckmann_dielectric, separable masking, 2^14 samples).
@@ -574,7 +575,8 @@ def test_materialx_table_against_its_analytic_fits():
 
 
 @pytest.mark.parametrize("fixed", [{"fresnel": "schlick", "f0": 0.3},
-                                   {"fresnel": "dielectric", "eta": 1.5}])
+                                   pytest.param({"fresnel": "dielectric", "eta": 1.5},
+                                                marks=pytest.mark.slow)])
 def test_kulla_conty_albedo_against_the_reference(fixed):
     """E_kc = E_F + F_ms (1 - E) with F_ms = F_avg^2 E_avg / (1 - F_avg (1 - E_avg)), each piece
     from the float64 reference by quadrature (E_avg: 24-node Gauss-Legendre in mu; F_avg:
@@ -799,7 +801,7 @@ def test_header_compiles_and_matches_python_lookup(layout, compiler, small_layou
     assert np.all(np.abs(got - want) <= bound), np.max(np.abs(got - want) / bound)
 
 
-@pytest.mark.parametrize("arch", ["sm_75", "sm_90"])
+@pytest.mark.parametrize("arch", [pytest.param("sm_75", marks=pytest.mark.slow), "sm_90"])
 def test_header_compiles_for_cuda(arch, small_layouts, tmp_path):
     nvcc = shutil.which("nvcc")
     if nvcc is None:
@@ -820,7 +822,7 @@ def test_header_compiles_for_cuda(arch, small_layouts, tmp_path):
         assert (tmp_path / "k.ptx").stat().st_size > 0
 
 
-@pytest.mark.parametrize("std", ["CL1.2", "CL3.0"])
+@pytest.mark.parametrize("std", [pytest.param("CL1.2", marks=pytest.mark.slow), "CL3.0"])
 def test_header_runs_as_opencl_c(std, small_layouts, tmp_path):
     """Built by the OpenCL device's compiler (PoCL here) and run: equal to Table.lookup within
     float32 rounding."""

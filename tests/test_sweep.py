@@ -279,6 +279,7 @@ def _ledger_count(out: Path) -> int:
         return 0
 
 
+@pytest.mark.slow       # the default run keeps the SIGTERM/SIGINT test and the table resume test
 def test_sigkill_at_random_moments_then_resume_is_bit_identical(tmp_path):
     """SIGKILL at random moments of a run (several times), each followed by --resume: the
     finished store equals an uninterrupted run's bit for bit."""
