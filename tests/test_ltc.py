@@ -255,3 +255,98 @@ def test_anisotropic_fit_of_an_isotropic_lobe():
     for k in range(2):
         se = np.hypot(iso["L1_stderr"][:, 0], ani["L1_stderr"][:, 0, k])
         assert np.all(ani["L1"][:, 0, k] <= 1.1 * iso["L1"][:, 0] + 3 * se), (ani["L1"], iso["L1"])
+
+
+# ---- the two-parameter form (Zeltner et al. 2022) and Cycles' sheen layout ----
+
+@pytest.fixture(scope="module")
+def sheen_cells():
+    """Charlie over a small grid in Cycles' sheen layout's axes (roughness rows, mu columns),
+    an empty cell included (r = 0.0317: alpha 1e-3 at mu = 1, where E < 1e-150)."""
+    from clbrdf.tables.ltc import fit_ltc
+    axes = {"r": [0.0317, 0.3, 0.6, 1.0], "mu": [0.05, 0.4, 0.8, 1.0]}
+    z = fit_ltc("charlie", axes, report_samples=1 << 15, form="zeltner")
+    g = fit_ltc("charlie", axes, report_samples=1 << 15)
+    return axes, z, g
+
+
+def test_zeltner_form(sheen_cells):
+    """form="zeltner": the stored M^-1 has the form [[1, 0, b/a], [0, 1, 0], [0, 0, 1/a]]; its
+    errors are no smaller than the general fit's (a subset of its matrices) beyond 3 standard
+    errors; the fit is the minimum of its own loss over a grid of (log a, b) around it; an
+    empty cell is stored as the cosine with E = 0 and no error."""
+    from clbrdf.tables import ltc as L
+    axes, z, g = sheen_cells
+    m = L.ltc_matrix(z)
+    for (i, j) in [(0, 0), (0, 1), (1, 0), (1, 2), (2, 1), (2, 0)]:
+        want = 1.0 if i == j else 0.0
+        assert np.allclose(m[..., i, j], want, atol=1e-6), (i, j)
+    live = z["E"] > 0
+    assert not live[0, 3] and live.sum() >= 13
+    assert np.array_equal(m[0, 3], np.eye(3)) and z["L1"][0, 3] == 0 and z.computed["empty_cells"] >= 1
+    se = np.hypot(z["L1_stderr"], g["L1_stderr"])
+    assert np.all(z["L1"][live] >= g["L1"][live] - 3 * se[live]), (z["L1"], g["L1"])
+    # the loss at the fit against a grid of candidates (the fit's own samples and seed)
+    c = L._Cells("charlie", axes, {}, "single", None, None, 1 << 15, 0)
+    frames, _, _ = c.zeltner()
+    loss = L._Fit(L.LTCRunner(c.model, c.wo, "sobol"), frames, c.E_fit, c.scale, 1024,
+                  L.derive_seed(0, 2), L._zeltner_matrices)
+    cell = int(np.ravel_multi_index((2, 1), c.shape))
+    a, b = 1 / m[2, 1, 2, 2], m[2, 1, 0, 2] / m[2, 1, 2, 2]
+    best = loss(np.array([cell]), np.array([[np.log(a), b]]))[0]
+    la, bb = np.meshgrid(np.log(a) + np.linspace(-0.5, 0.5, 21), b + np.linspace(-0.5, 0.5, 21))
+    grid = loss(np.full(la.size, cell), np.stack([la.ravel(), bb.ravel()], 1))
+    assert best <= grid.min() * (1 + 1e-3), (best, grid.min())
+
+
+def test_cycles_sheen_layout(sheen_cells, tmp_path):
+    """Cycles' table_sheen_ltc layout of the fit: planes transformA, transformB, albedo at
+    offsets 0, n, 2n, entry j * cols + i (j: roughness, i: mu); Cycles' own density
+    (bsdf_sheen_eval: D = z a^2 / (pi ((a x + b z)^2 + (a y)^2 + z^2)^2), X toward the viewer)
+    of each cell's (a, b) equals the fitted LTC's (clbrdf.ref.ltc) at random directions; the C
+    header compiles and holds the planes; the .exr holds them and the errors."""
+    import shutil
+    import subprocess
+    from clbrdf.tables.ltc import ltc_matrix
+    from clbrdf.tables.ltc_layouts import save_ltc, textures
+    axes, z, _ = sheen_cells
+    tex = textures("cycles_sheen", z)
+    planes = np.moveaxis(tex["table_sheen_ltc"], -1, 0).astype(np.float32)     # (3, rows, cols)
+    flat = planes.reshape(-1)
+    rng = np.random.default_rng(5)
+    w = rng.normal(size=(200, 3))
+    w /= np.linalg.norm(w, axis=1, keepdims=True)
+    w[:, 2] = np.abs(w[:, 2])
+    nr, nc = len(axes["r"]), len(axes["mu"])
+    for j in range(nr):
+        for i in range(nc):
+            a, b, E = flat[j * nc + i], flat[nr * nc + j * nc + i], flat[2 * nr * nc + j * nc + i]
+            assert E == np.float32(z["E"][j, i])
+            if E == 0:
+                continue
+            x, y, zz = w.T
+            d_cycles = zz * a * a / (np.pi * ((a * x + b * zz) ** 2 + (a * y) ** 2 + zz * zz) ** 2)
+            d_ref = ref.ltc_eval(ltc_matrix(z, j, i), w)
+            np.testing.assert_allclose(d_cycles, d_ref, rtol=2e-6, atol=1e-12)
+    outs = [tmp_path / "s.h", tmp_path / "s.npz"]
+    try:
+        import OpenEXR
+        outs.append(tmp_path / "s.exr")
+    except ImportError:
+        OpenEXR = None
+    save_ltc("cycles_sheen", z, tex, outs)
+    if OpenEXR is not None:
+        with OpenEXR.File(str(tmp_path / "s.exr"), separate_channels=True) as f:
+            parts = {p.name(): p.channels for p in f.parts}
+            got = np.stack([parts["table_sheen_ltc"][c].pixels for c in "RGB"])
+            assert np.array_equal(got, planes)
+            assert np.array_equal(parts["errors"]["L1"].pixels, np.float32(z["L1"]))
+    if shutil.which("gcc"):
+        (tmp_path / "main.c").write_text(
+            '#include <stdio.h>\n#include "s.h"\nint main(void) { for (int i = 0; i < '
+            f'{flat.size}; ++i) printf("%.9g\\n", table_sheen_ltc[i]); return 0; }}\n')
+        subprocess.run(["gcc", "-std=c99", "-Wall", "-Werror", "-o", "main", "main.c"],
+                       cwd=tmp_path, check=True)
+        got = np.float32(subprocess.run(["./main"], cwd=tmp_path, capture_output=True,
+                                        text=True, check=True).stdout.split())
+        assert np.array_equal(got, flat)

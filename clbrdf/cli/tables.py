@@ -22,7 +22,7 @@ from ..tables.layouts import (
     layouts as _layouts,
     make_layout,
 )
-from ..tables.ltc import fit_ltc
+from ..tables.ltc import FORMS as LTC_FORMS, fit_ltc
 from ..tables.ltc_layouts import check_ltc_out, ltc_layout, ltc_layouts, save_ltc
 from ..tables.table import DIRECTION_AXES, load_tables
 from .common import (
@@ -271,10 +271,11 @@ def cmd_ltc(args) -> int:
               precision=args.precision, device=args.device, width=args.width, command=cmd)
     t0 = time.perf_counter()
     if args.layout:
-        if args.axis:
-            raise ParameterError("--layout names the axes itself: give no --axis with it")
+        if args.axis or args.form:
+            raise ParameterError("--layout names the axes and the LTC's form itself: give no "
+                                 "--axis or --form with it")
         for o in outs:
-            check_ltc_out(o)
+            check_ltc_out(o, args.layout)
         name = args.model or ltc_layouts()[args.layout]["model"]
         params = parse_params(spec_of(name), args.param)
         model_for(name, args, params)
@@ -291,7 +292,8 @@ def cmd_ltc(args) -> int:
         axes = _axes(args.axis)
         table_axes(spec, axes, params, args.precision)
         model_for(spec.name, args, params)
-        table = fit_ltc(spec.name, axes, **kw, **params)
+        form = {} if args.form is None else {"form": args.form}
+        table = fit_ltc(spec.name, axes, **form, **kw, **params)
         written = save_tables({"ltc": table}, outs, prefix=c_name(spec.name))
     c = table.computed
     e1, se1 = np.asarray(table["L1"]), np.asarray(table["L1_stderr"])
@@ -363,14 +365,18 @@ def add_parsers(sub) -> None:
                                    "magnitude E, the Schlick split's B term, and the fit's L3 "
                                    "and relative L1 errors with their standard errors "
                                    "(clbrdf.fit_ltc). --layout NAME writes an engine's textures "
-                                   "(threejs: .js ES module, .h, .npz); without it, the fit as a "
-                                   "table (.npz, .csv, .h, .exr).")
+                                   "(threejs: .js ES module, .h, .npz, .exr; cycles_sheen: .h, "
+                                   ".npz, .exr); without it, the fit as a table (.npz, .csv, .h, "
+                                   ".exr).")
     model_arg(p, "with --layout: default the layout's")
     p.add_argument("--layout", choices=sorted(ltc_layouts()), default=None,
                    help="an engine's LTC textures in its layout")
     p.add_argument("--axis", action="append", default=[], metavar="NAME=START:STOP:COUNT",
                    help="a grid axis: mu, theta or sqrt1m_mu (mu = 1 - v^2), r (alpha = r^2) or "
                         "a numeric parameter (as 'clbrdf table --axis'); repeat for each axis")
+    p.add_argument("--form", choices=sorted(LTC_FORMS), default=None,
+                   help="general: all free entries (default); zeltner: the two-parameter LTC of "
+                        "Zeltner et al. 2022 (Cycles' sheen)")
     p.add_argument("--samples", "-n", type=int, default=1024, metavar="N",
                    help="quasi-random samples per loss evaluation (default 1024)")
     p.add_argument("--report-samples", type=int, default=1 << 16, metavar="N",

@@ -159,6 +159,12 @@ def exr_bytes(tables: dict, path: Path) -> bytes:
                                         "axes_values": {a["name"]: a["values"] for a in t.axes}},
                                        default=str)}
         parts.append(OpenEXR.Part(header, chans, name))
+    return exr_parts_bytes(parts, path)
+
+
+def exr_parts_bytes(parts: list, path: Path) -> bytes:
+    """The bytes of a multi-part EXR file of OpenEXR.Part ``parts``, to be written at ``path``."""
+    OpenEXR = openexr()
     # OpenEXR writes to a path: a temporary name beside the target (.NAME.PID.*.tmp, which a
     # later write removes if this process was killed: outputs.remove_stale), read back as bytes
     remove_stale(path)

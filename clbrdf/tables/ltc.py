@@ -23,6 +23,10 @@ Per cell (a view angle and parameter values):
   the relative L1 error int |t - D| dw (in [0, 2]: twice the mass the LTC puts in the wrong
   place), each with its standard error, from ``report_samples`` independent Philox samples.
 The matrix is stored as ltc_code and the engines store it: M^-1 divided by its middle element.
+
+``form="zeltner"``: the two-parameter LTC of Zeltner, Burley & Chiang 2022 (their sheen table,
+Cycles' ``table_sheen_ltc``): M^-1 = [[a, 0, b], [0, a, 0], [0, 0, 1]] in the frame of the
+normal with X toward wo, Nelder-Mead over (log a, b) from the best of 15 starts.
 """
 from __future__ import annotations
 
@@ -114,17 +118,48 @@ def _matrices(frames, x):
     return m, np.linalg.inv(m)
 
 
+def _zeltner_matrices(frames, x):
+    """M and M^-1 = [[a, 0, b], [0, a, 0], [0, 0, 1]] R^T for x = (log a, b) (n, 2), R the
+    normal's frame with X toward wo (Zeltner et al. 2022: Cycles' transformA, transformB)."""
+    n = len(x)
+    s = np.zeros((n, 3, 3))
+    s[:, 0, 0] = s[:, 1, 1] = np.exp(x[:, 0])
+    s[:, 0, 2] = x[:, 1]
+    s[:, 2, 2] = 1
+    minv = s @ np.swapaxes(frames, 1, 2)
+    return np.linalg.inv(minv), minv
+
+
+FORMS = {"general": _matrices, "zeltner": _zeltner_matrices}
+
+
+def _general_of(frames, m):
+    """The isotropic parameters x = (log a, log b, c, t) (n, 4) with _matrices(frames, x) = m
+    up to scale, for m (n, 3, 3) whose R^T m keeps y apart (a Zeltner LTC): the x-z block of
+    R^T m = Ry(t) [[a, c], [0, 1]] k is a QR decomposition."""
+    A = np.swapaxes(frames, 1, 2) @ m
+    c0, c1 = A[:, [0, 2], 0], A[:, [0, 2], 2]          # the block's columns (x, z)
+    u00 = np.linalg.norm(c0, axis=1)
+    q = c0 / u00[:, None]                              # (cos t, -sin t)
+    u01 = np.sum(q * c1, axis=1)
+    u11 = q[:, 0] * c1[:, 1] - q[:, 1] * c1[:, 0]
+    t = np.arctan2(-q[:, 1], q[:, 0])
+    return np.stack([np.log(np.abs(u00 / u11)), np.log(np.abs(A[:, 1, 1] / u11)), u01 / u11,
+                     t], axis=1)
+
+
 class _Fit:
     """The cells' runner and the loss of candidate parameters (cells, x)."""
 
-    def __init__(self, runner, frames, E, scale, samples, seed):
+    def __init__(self, runner, frames, E, scale, samples, seed, matrices=_matrices):
         self.runner, self.frames, self.E, self.scale = runner, frames, E, scale
         self.samples, self.seed, self.evaluations = samples, seed, 0
+        self.matrices = matrices
 
     def __call__(self, cells, x):
         if len(cells) == 0:
             return np.zeros(0)
-        m, minv = _matrices(self.frames[cells], x)
+        m, minv = self.matrices(self.frames[cells], x)
         r = self.runner.loss(cells, m, minv, self.E[cells], self.scale[cells], self.samples,
                              self.seed)
         self.evaluations += len(cells)
@@ -226,10 +261,18 @@ class _Cells:
         self.E_se = np.sqrt(np.maximum(mom[:, 1] / N - E * E, 0) / (N - 1))
         B = self.B = mom[:, 2] / N
         self.B_se = np.sqrt(np.maximum(mom[:, 12] / N - B * B, 0) / (N - 1))
-        if np.any(E <= 0):
-            i = int(np.argmin(E))
-            at = ", ".join(f"{k}={v[i]:g}" for k, v in self.params.items())
-            raise ParameterError(f"fit_ltc: the lobe is empty (E = {E[i]:g}) at mu={mu[i]:g}, {at}")
+        # an empty cell: no sample of the lobe contributed (Charlie at alpha 1e-3 and mu >= 0.5,
+        # where E < 1e-150); it is fitted as the cosine's (finite throughout) and then stored as
+        # M^-1 = I, E = B = 0 and errors 0 (``table``)
+        empty = self.empty = E <= 0
+        if np.all(empty):
+            at = ", ".join(f"{k}={v[0]:g}" for k, v in self.params.items())
+            raise ParameterError(f"fit_ltc: the lobe is empty (E = 0) in every cell (mu={mu[0]:g}"
+                                 f"{', ' + at if at else ''}, ...)")
+        self.E_fit = np.where(empty, 1.0, E)
+        mom = mom.copy()        # the cosine's: mean z, E[x^2] = E[y^2] = 1/4, E[z^2] = 1/2
+        mom[empty, 0] = 1
+        mom[np.ix_(empty, np.arange(3, 12))] = [0, 0, 1, 0.25, 0.25, 0.5, 0, 0, 0]
         # the frame of the accurate mean (in the first frame), and the moments turned into it
         mean_local = mom[:, 3:6] / mom[:, 0:1]
         rot = _frames(mean_local, isotropic=iso)           # local frame -> refined frame
@@ -252,12 +295,13 @@ class _Cells:
                                                         np.full(n, 0.1)]), axis=1)
         self.scale = np.pi * a * b                   # about 1 / max D of the start
 
-    def best_start(self, loss):
+    def best_start(self, loss, extra=()):
         """The best of a few starts per cell, all evaluated in one launch: the moment-matched
         one; the same with a = b (their geometric mean) and that x 1/2 and x 2; each also with
         the frame turned back to the normal. A ring-shaped lobe (Charlie sheen at normal
         incidence, alpha 0.05) has second moments that no single cosine matches: from the
-        moment start alone Nelder-Mead stalled at L1 1.1 beside neighbours at 0.2."""
+        moment start alone Nelder-Mead stalled at L1 1.1 beside neighbours at 0.2. ``extra``:
+        further starts (n, d) each (fit_ltc: the Zeltner fit's)."""
         x0, n = self.x0, self.n
         z = self.frames[:, :, 2]
         back = np.arctan2(self.frames[:, 2, 0], z[:, 2])         # Ry(back) R^T-turns Z to z
@@ -268,25 +312,48 @@ class _Cells:
             starts.append(np.stack([x0[:, 0], x0[:, 1], x0[:, 2], t] + rest, axis=1))
             for k in (0.0, -np.log(2), np.log(2)):
                 starts.append(np.stack([iso + k, iso + k, np.zeros(n), t] + rest, axis=1))
+        return self._best(loss, starts + list(extra))
+
+    def _best(self, loss, starts):
+        n = self.n
         cand = np.concatenate(starts)
         f = loss(np.tile(np.arange(n), len(starts)), cand).reshape(len(starts), n)
         best = np.argmin(f, axis=0)
         return cand.reshape(len(starts), n, -1)[best, np.arange(n)]
 
+    def zeltner(self):
+        """The normal's frames (X toward wo) and steps of form="zeltner"; its start: the best of
+        15 in one launch: a = 1 / (the moment-matched scale's geometric mean) x 1/4 .. 4, and
+        b = 0, or the shift -a tan(theta) that moves the cosine's axis to the lobe's mean
+        direction (at theta from the normal), or half of it."""
+        if not self.isotropic:
+            raise ParameterError('form="zeltner" is the isotropic two-parameter LTC: fit an '
+                                 'isotropic model without a phi axis, or use form="general"')
+        n = self.n
+        frames = _frames(np.tile([0.0, 0.0, 1.0], (n, 1)), isotropic=True, ref=self.azimuth)
+        z = np.einsum("nji,nj->ni", frames, self.frames[:, :, 2])    # mean direction, locally
+        tan = z[:, 0] / np.maximum(z[:, 2], 1e-3)
+        a0 = np.exp(-(self.x0[:, 0] + self.x0[:, 1]) / 2)
+        starts = [np.stack([np.log(a0 * k), -a0 * k * tan * h], axis=1)
+                  for k in (0.25, 0.5, 1.0, 2.0, 4.0) for h in (0.0, 0.5, 1.0)]
+        steps = np.stack([np.full(n, 0.1), np.maximum(0.1 * a0, 0.05)], axis=1)
+        return frames, steps, starts
+
     def errors(self, minv, seed_word: int = 3):
         """(L3, L3_se, L1, L1_se) of the LTCs minv (n, 3, 3) from N independent samples."""
         minv = np.asarray(minv, float)
         N, k3 = self.N, 1 / self.scale ** 3
-        rep = self.indep.loss(np.arange(self.n), np.linalg.inv(minv), minv, self.E, self.scale,
-                              N, derive_seed(self.seed, seed_word))
+        rep = self.indep.loss(np.arange(self.n), np.linalg.inv(minv), minv, self.E_fit,
+                              self.scale, N, derive_seed(self.seed, seed_word))
         L3 = rep[:, 0] / N * k3
         L3_se = np.sqrt(np.maximum(rep[:, 1] / N - (rep[:, 0] / N) ** 2, 0) / (N - 1)) * k3
         L1 = rep[:, 2] / N
         L1_se = np.sqrt(np.maximum(rep[:, 3] / N - L1 * L1, 0) / (N - 1))
-        return L3, L3_se, L1, L1_se
+        return tuple(np.where(self.empty, 0.0, e) for e in (L3, L3_se, L1, L1_se))
 
     def table(self, minv, errors, meta):
         n = self.n
+        minv = np.where(self.empty[:, None, None], np.eye(3), minv)
         minv_n = minv / minv[:, 1:2, 1:2]
         L3, L3_se, L1, L1_se = errors
         vals = np.concatenate([minv_n.reshape(n, 9), np.stack([self.E, self.B, L3, L1], 1)], 1)
@@ -296,7 +363,8 @@ class _Cells:
         computed = {"quantity": "ltc", "model": m.name,
                     **{k: v for k, v in m.describe().items() if k != "model" and k not in self.params},
                     "axes": self.names, "report_samples": self.N, "seed": self.seed,
-                    "precision": m.precision, **meta, "device": m.device.info.name,
+                    "precision": m.precision, **meta,
+                    "empty_cells": int(self.empty.sum()), "device": m.device.info.name,
                     "width": m.width, "clbrdf": __version__, "environment": environment()}
         q = len(QUANTITIES)
         return Table(name="ltc", axes=self.axl, quantity=list(QUANTITIES),
@@ -307,7 +375,8 @@ class _Cells:
 
 def fit_ltc(name: str, axes: dict, *, samples: int = 1024, report_samples: int = 1 << 16,
             seed: int = 0, precision: str = "single", device=None, width: int | None = None,
-            max_iter: int = 600, restarts: int = 1, command: str | None = None, **fixed):
+            max_iter: int = 600, restarts: int = 1, form: str = "general",
+            command: str | None = None, **fixed):
     """A table of LTC fits over the grid of ``axes`` (as ``clbrdf.albedo_table`` takes them: a
     view axis ``mu``, ``theta`` or ``sqrt1m_mu``, ``phi`` (wo's azimuth), ``r`` or ``alpha``
     and any numeric parameter, alpha_x and alpha_y of an anisotropic model included), with
@@ -318,7 +387,10 @@ def fit_ltc(name: str, axes: dict, *, samples: int = 1024, report_samples: int =
     its ``_stderr`` (module docstring). ``samples``: quasi-random samples per loss evaluation
     (a multiple of 16); ``report_samples``: Philox samples of E, B and the reported errors;
     ``max_iter``: Nelder-Mead iterations per cell and run, at most; ``restarts``: further runs
-    from the best point."""
+    from the best point; ``form``: "general" (the 4 or 6 free entries) or "zeltner" (the
+    two-parameter LTC of Zeltner et al. 2022, module docstring)."""
+    if form not in FORMS:
+        raise ParameterError(f"form={form!r} is not valid: choose one of {', '.join(FORMS)}")
     samples = check_int("samples", samples, 16, 1 << 24, "[16, 2^24]")
     if samples % 16:
         raise ParameterError(f"samples={samples} is not valid: give a multiple of 16")
@@ -328,27 +400,50 @@ def fit_ltc(name: str, axes: dict, *, samples: int = 1024, report_samples: int =
     t0 = time.perf_counter()
     c = _Cells(name, axes, fixed, precision, device, width, report_samples, seed)
     t1 = time.perf_counter()
-    loss = _Fit(LTCRunner(c.model, c.wo, "sobol"), c.frames, c.E, c.scale, samples,
-                derive_seed(seed, 2))
-    x, fx, its = nelder_mead(loss, c.best_start(loss), c.steps, max_iter=max_iter)
-    for _ in range(restarts):       # a collapsed simplex can stall off the minimum (Lagarias et
-        # al. 1998): start a fresh one at the best point
-        x2, f2, its2 = nelder_mead(loss, x, c.steps, max_iter=max_iter)
-        better = f2 < fx
-        x[better], fx[better] = x2[better], f2[better]
-        its += its2
-    _, minv = _matrices(c.frames, x)
+    runner = LTCRunner(c.model, c.wo, "sobol")
+
+    def run(loss, x0, steps):
+        x, fx, its = nelder_mead(loss, x0, steps, max_iter=max_iter)
+        for _ in range(restarts):   # a collapsed simplex can stall off the minimum (Lagarias et
+            # al. 1998): start a fresh one at the best point
+            x2, f2, its2 = nelder_mead(loss, x, steps, max_iter=max_iter)
+            better = f2 < fx
+            x[better], fx[better] = x2[better], f2[better]
+            its += its2
+        return x, its
+
+    evaluations, its = 0, 0
+    if form == "zeltner" or c.isotropic:
+        zframes, zsteps, zstarts = c.zeltner()
+        zloss = _Fit(runner, zframes, c.E_fit, c.scale, samples, derive_seed(seed, 2),
+                     _zeltner_matrices)
+        xz, its = run(zloss, c._best(zloss, zstarts), zsteps)
+        evaluations = zloss.evaluations
+    if form == "zeltner":
+        _, minv = _zeltner_matrices(zframes, xz)
+    else:
+        # from the best of the starts and the Zeltner fit (at Charlie alpha 1e-3, mu 0.05 the
+        # general fit's own starts ended at 11x its loss)
+        loss = _Fit(runner, c.frames, c.E_fit, c.scale, samples, derive_seed(seed, 2))
+        extra = [_general_of(c.frames, _zeltner_matrices(zframes, xz)[0])] if c.isotropic else []
+        x, its_g = run(loss, c.best_start(loss, extra), c.steps)
+        its = its + its_g
+        evaluations += loss.evaluations
+        _, minv = _matrices(c.frames, x)
     t2 = time.perf_counter()
     errors = c.errors(minv)
     t3 = time.perf_counter()
-    meta = {"fit": ("Nelder-Mead on (log a, log b, c, t), M = [X Y Z] Ry(t) [[a, 0, c], "
-                    "[0, b, 0], [0, 0, 1]]" if c.isotropic else
+    meta = {"fit": ("Nelder-Mead on (log a, b), M^-1 = [[a, 0, b], [0, a, 0], [0, 0, 1]] in the "
+                    "normal's frame, X toward wo (Zeltner et al. 2022)" if form == "zeltner" else
+                    "Nelder-Mead on (log a, log b, c, t), M = [X Y Z] Ry(t) [[a, 0, c], "
+                    "[0, b, 0], [0, 0, 1]], from the best of the moment starts and the Zeltner "
+                    "form's fit" if c.isotropic else
                     "Nelder-Mead on (log a, log b, c, t, d, psi), M = [X Y Z] Ry(t) Rz(psi) "
                     "[[a, 0, c], [0, b, d], [0, 0, 1]]") + " (clbrdf/tables/ltc.py)",
             "loss": "L3 = int |f cos / E - D|^3 dw, MIS of the lobe's and the LTC's samples",
-            "samples": samples, "max_iter": max_iter, "restarts": restarts, "iterations_max": int(its.max()),
+            "form": form, "samples": samples, "max_iter": max_iter, "restarts": restarts, "iterations_max": int(its.max()),
             "iterations_mean": round(float(its.mean()), 2),
-            "loss_evaluations": int(loss.evaluations),
+            "loss_evaluations": int(evaluations),
             "seconds": round(t3 - t0, 3), "seconds_moments": round(t1 - t0, 3),
             "seconds_fit": round(t2 - t1, 3), "seconds_report": round(t3 - t2, 3),
             **({"command": command} if command else {})}

@@ -1,7 +1,8 @@
 """LTC tables in the layouts engines load (clbrdf/data/ltc_layouts.json): ``ltc_layout`` fits
-them (clbrdf.fit_ltc) and ``ltc_files`` writes them as an ES module for three.js (``.js``), a C
-header (``.h``, C99, C++17, CUDA, OpenCL C) or ``.npz`` (textures, per-cell errors and how they
-were computed).
+them (clbrdf.fit_ltc) and ``save_ltc`` writes them as an ES module for three.js (``.js``), a C
+header (``.h``, C99, C++17, CUDA, OpenCL C), ``.npz`` (textures, per-cell errors and how they
+were computed) or ``.exr`` (one part per texture, channels R, G, B, A as the texture's; a part
+"errors" with E, B, L3, L1 and their standard errors), as the layout's "formats" allow.
 """
 from __future__ import annotations
 
@@ -17,9 +18,11 @@ from ..version import __version__
 from .axes import parse_axis
 from .ltc import fit_ltc
 from .chart import figure_png
+from .files import exr_parts_bytes
 from .outputs import probe_directory, write_together
+from .table import openexr
 
-SUFFIXES = (".js", ".h", ".npz")
+SUFFIXES = (".js", ".h", ".npz", ".exr")
 
 
 def ltc_layouts() -> dict:
@@ -60,19 +63,23 @@ def ltc_layout(name: str, model: str | None = None, **kw):
     for text in lay["axes"]:
         ax = parse_axis(text)
         axes[ax["name"]] = ax
-    table = fit_ltc(model or lay["model"], axes, **kw)
+    table = fit_ltc(model or lay["model"], axes, **{"form": lay.get("form", "general"), **kw})
     return table, textures(name, table)
 
 
 def textures(name: str, table) -> dict:
-    """The layout's textures {NAME: (rows, cols, 4) float64} of a fit_ltc table over two axes
-    (rows: its first axis)."""
+    """The layout's textures {NAME: (rows, cols, channels) float64} of a fit_ltc table over two
+    axes (rows: its first axis)."""
     lay = ltc_layouts()[name]
     shape = table.shape
     col, row = np.meshgrid(np.arange(shape[1]), np.arange(shape[0]))
     extra = {"zero": np.zeros(shape),
              "sphere": sphere_form_factor(2 * col / max(shape[1] - 1, 1) - 1,
-                                          row / max(shape[0] - 1, 1))}
+                                          row / max(shape[0] - 1, 1)),
+             # Zeltner's (a, b) of M^-1 = [[a, 0, b], [0, a, 0], [0, 0, 1]], from the entries
+             # normalised by the middle one (1/a)
+             "a_inv": 1 / np.asarray(table["minv22"], float),
+             "b_inv": np.asarray(table["minv02"], float) / np.asarray(table["minv22"], float)}
     return {k: np.stack([extra[q] if q in extra else table[q] for q in chans], axis=-1)
             for k, chans in lay["textures"].items()}
 
@@ -124,6 +131,12 @@ def js_text(name: str, table, tex: dict) -> str:
     return "\n".join(lines)
 
 
+def _flat(name: str, v) -> np.ndarray:
+    """A texture's floats in the layout's memory order: interleaved channels, or planes."""
+    v = v.astype(np.float32)
+    return (np.moveaxis(v, -1, 0) if ltc_layouts()[name].get("planar") else v).reshape(-1)
+
+
 def c_text(name: str, table, tex: dict) -> str:
     lay = ltc_layouts()[name]
     lines = [f"/* {_about(name, table)}", f" * {lay['description']}", f" * {lay['notes']} */",
@@ -133,7 +146,7 @@ def c_text(name: str, table, tex: dict) -> str:
              "#else", "#define CLBRDF_LTC_DATA static const", "#endif"]
     for k, v in tex.items():
         rows, cols = v.shape[:2]
-        flat = v.astype(np.float32).reshape(-1)
+        flat = _flat(name, v)
         lines.append(f"#define {k}_SIZE_U {cols}\n#define {k}_SIZE_V {rows}")
         lines.append(f"CLBRDF_LTC_DATA float {k}[{flat.size}] = {{" +
                      ",".join(_short(x) + ("f" if "." in _short(x) or "e" in _short(x) else ".f")
@@ -155,11 +168,39 @@ def npz_bytes(name: str, table, tex: dict) -> bytes:
     return buf.getvalue()
 
 
-def check_ltc_out(out) -> Path:
+def exr_bytes(name: str, table, tex: dict, path: Path) -> bytes:
+    OpenEXR = openexr()
+    meta = json.dumps({"layout": name, **ltc_layouts()[name], "computed": table.computed},
+                      default=str)
+    parts = []
+    grids = dict(tex)
+    grids["errors"] = None
+    for k, v in grids.items():
+        if v is None:
+            q = ("E", "B", "L3", "L1")
+            chans = {c: np.asarray(table[c], np.float32) for c in q}
+            chans.update({c + ".stderr": np.asarray(table[c + "_stderr"], np.float32) for c in q})
+        else:
+            chans = {"RGBA"[c]: v[..., c].astype(np.float32) for c in range(v.shape[-1])}
+        rows, cols = next(iter(chans.values())).shape
+        chans = {c: np.ascontiguousarray(a) for c, a in chans.items()}
+        window = (np.array([0, 0], np.int32), np.array([cols - 1, rows - 1], np.int32))
+        header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
+                  "displayWindow": window, "dataWindow": window, "clbrdf_ltc": meta}
+        parts.append(OpenEXR.Part(header, chans, k))
+    return exr_parts_bytes(parts, path)
+
+
+def check_ltc_out(out, layout: str) -> Path:
+    """``out`` checked before any work: a suffix that ``layout`` is written as, a writable
+    directory."""
     out = Path(out)
-    if out.suffix.lower() not in SUFFIXES:
-        raise ParameterError(f"out={str(out)!r}: unknown output suffix {out.suffix!r}: LTC "
-                             f"tables are written as {', '.join(SUFFIXES)}")
+    allowed = ltc_layouts()[layout].get("formats", SUFFIXES)
+    if out.suffix.lower() not in allowed:
+        raise ParameterError(f"out={str(out)!r}: unknown output suffix {out.suffix!r}: layout "
+                             f"{layout} is written as {', '.join(allowed)}")
+    if out.suffix.lower() == ".exr":
+        openexr()
     if out.is_dir():
         raise ParameterError(f"out={str(out)!r} is a directory; give a file name")
     try:
@@ -172,8 +213,11 @@ def check_ltc_out(out) -> Path:
 def save_ltc(name: str, table, tex: dict, outs, chart: bool = False) -> list:
     """Write the layout's files together (a kill leaves the old files or the new ones), with
     the fit's error map (FILE.png beside the first) if ``chart``."""
-    writers = {".js": js_text, ".h": c_text, ".npz": npz_bytes}
-    files = {Path(o): writers[Path(o).suffix.lower()](name, table, tex) for o in outs}
+    writers = {".js": js_text, ".h": c_text, ".npz": npz_bytes,
+               ".exr": lambda *a: exr_bytes(*a, Path(o))}
+    files = {}
+    for o in outs:
+        files[Path(o)] = writers[Path(o).suffix.lower()](name, table, tex)
     if chart:
         files[Path(outs[0]).with_suffix(".png")] = figure_png({"ltc": table})
     write_together(files)
