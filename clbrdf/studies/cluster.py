@@ -4,8 +4,10 @@
     client = connect("local:2")                 # or connect("tcp://scheduler:8786")
     clbrdf.sweep("ggx", "ggx.zarr", axes=..., client=client)
 
-Tasks carry the job (scattered once) and a chunk index; nothing else crosses the network but
-the chunk's arrays, which the client writes to the store with its ledger entry. Each worker
+Tasks carry the job (a few KB of JSON-like dict, inline in each task: scattered data lives on
+the workers and is gone with them, since the scheduler's memory manager drops broadcast
+replicas) and a chunk index; nothing else crosses the network but the chunk's arrays, which the
+client writes to the store with its ledger entry. Each worker
 holds its own OpenCL context, built once by a worker plugin (``DevicePlugin``): contexts cannot
 be pickled, and a context made before a fork breaks the child. A worker killed mid-chunk loses
 only that chunk, which the scheduler runs again elsewhere; random numbers are keyed by position
@@ -91,12 +93,11 @@ def run_on_cluster(client: Client, root, path, job: dict, todo: list, stop, bar,
         raise ValueError("device: give a selector string for cluster workers")
     client.register_plugin(DevicePlugin(device), name=DevicePlugin.name)
     token = hashlib.sha1(json.dumps(job, sort_keys=True).encode()).hexdigest()[:16]
-    job_f = client.scatter(job, broadcast=True, hash=False)
     workers = max(1, len(client.scheduler_info().get("workers", {})))
     pending = iter(todo)
 
     def submit(i):
-        return client.submit(_chunk_task, job_f, i, device, key=f"clbrdf-sweep-{token}-{i}")
+        return client.submit(_chunk_task, job, i, device, key=f"clbrdf-sweep-{token}-{i}")
     ac = as_completed([submit(i) for _, i in zip(range(2 * workers), pending)])
     interrupted = None
     while True:
