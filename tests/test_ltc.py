@@ -257,6 +257,21 @@ def test_anisotropic_fit_of_an_isotropic_lobe():
         assert np.all(ani["L1"][:, 0, k] <= 1.1 * iso["L1"][:, 0] + 3 * se), (ani["L1"], iso["L1"])
 
 
+
+def test_anisotropic_table_matrices_are_the_fitted_lobes():
+    """The stored (normalised) M^-1 of anisotropic cells, given back to ltc_errors, have the
+    errors fit_ltc reported (the same samples): the normalisation is a positive scale. By
+    M^-1[1][1], which is negative or near 0 in some of these cells, it was not: L1 near 2."""
+    from clbrdf.tables.ltc import fit_ltc, ltc_errors, ltc_matrix
+    axes = {"alpha_x": [0.05, 0.37, 1.0], "alpha_y": [0.05, 0.37, 1.0], "mu": [0.5],
+            "phi": [0.0, 0.8]}
+    t = fit_ltc("ggx", axes, samples=256, max_iter=100)
+    again = ltc_errors("ggx", axes, ltc_matrix(t))
+    assert np.allclose(again["L1"], t["L1"], rtol=1e-4, atol=1e-6), (again["L1"], t["L1"])
+    assert t.computed["normalised_by"] == "|det M^-1|^(1/3)"
+    assert np.allclose(np.linalg.det(ltc_matrix(t)), 1, rtol=1e-5)
+
+
 # ---- the two-parameter form (Zeltner et al. 2022) and Cycles' sheen layout ----
 
 @pytest.fixture(scope="module")

@@ -354,7 +354,11 @@ class _Cells:
     def table(self, minv, errors, meta):
         n = self.n
         minv = np.where(self.empty[:, None, None], np.eye(3), minv)
-        minv_n = minv / minv[:, 1:2, 1:2]
+        # any positive scale of M^-1 is the same LTC: isotropic, the engines' M^-1[1][1] (= 1 / b
+        # > 0); anisotropic, |det M^-1|^(1/3), since there M^-1[1][1] passes through 0 and
+        # changes sign (and a negative scale sends the lobe below the horizon)
+        norm = (minv[:, 1, 1] if self.isotropic else np.cbrt(np.abs(np.linalg.det(minv))))
+        minv_n = minv / norm[:, None, None]
         L3, L3_se, L1, L1_se = errors
         vals = np.concatenate([minv_n.reshape(n, 9), np.stack([self.E, self.B, L3, L1], 1)], 1)
         errs = np.concatenate([np.zeros((n, 9)),
@@ -364,6 +368,7 @@ class _Cells:
                     **{k: v for k, v in m.describe().items() if k != "model" and k not in self.params},
                     "axes": self.names, "report_samples": self.N, "seed": self.seed,
                     "precision": m.precision, **meta,
+                    "normalised_by": "M^-1[1][1]" if self.isotropic else "|det M^-1|^(1/3)",
                     "empty_cells": int(self.empty.sum()), "device": m.device.info.name,
                     "width": m.width, "clbrdf": __version__, "environment": environment()}
         q = len(QUANTITIES)
@@ -382,7 +387,8 @@ def fit_ltc(name: str, axes: dict, *, samples: int = 1024, report_samples: int =
     and any numeric parameter, alpha_x and alpha_y of an anisotropic model included), with
     fixed parameters and options in ``fixed``. Returns a ``clbrdf.Table``
     named "ltc" whose quantities are the normalised M^-1 entries ``minv00`` .. ``minv22``
-    (row-major, M^-1 / M^-1[1][1]), the magnitude ``E``, the Schlick split's ``B`` term (with
+    (row-major, M^-1 / M^-1[1][1], or M^-1 / |det M^-1|^(1/3) for an anisotropic model or a
+    phi axis), the magnitude ``E``, the Schlick split's ``B`` term (with
     F0: E(F0) = F0 (E - B) + B), the fit's ``L3`` error and the relative ``L1`` error, each with
     its ``_stderr`` (module docstring). ``samples``: quasi-random samples per loss evaluation
     (a multiple of 16); ``report_samples``: Philox samples of E, B and the reported errors;
