@@ -223,6 +223,20 @@ def nelder_mead(f, x0, steps, *, max_iter=600, xtol=1e-4, ftol=1e-6):
     return simplex[np.arange(n), best], fv[np.arange(n), best], its
 
 
+def _canonical(minv):
+    """The one M^-1 of each LTC fit for interpolation: D_o is symmetric about z, so Rz(b) M^-1
+    is the same LTC for every b, and fits of neighbouring cells can land b apart (the
+    anisotropic form's psi and psi + pi/2 with a and b swapped); turned so that the upper-left
+    2 x 2 block is symmetric with a positive trace (its polar form: b = atan2(m01 - m10,
+    m00 + m11), the b nearest to the identity), which an isotropic fit already is."""
+    minv = np.array(minv, float)
+    b = np.arctan2(minv[:, 0, 1] - minv[:, 1, 0], minv[:, 0, 0] + minv[:, 1, 1])
+    c, s = np.cos(b)[:, None], np.sin(b)[:, None]
+    r0, r1 = minv[:, 0].copy(), minv[:, 1].copy()
+    minv[:, 0], minv[:, 1] = c * r0 - s * r1, s * r0 + c * r1
+    return minv
+
+
 class _Cells:
     """The cells of a fit: the validated axes, the model over the flattened grid, wo per cell,
     and the lobe's moments (E, B, the frame and the moment-matched start) from ``N`` Philox
@@ -356,9 +370,13 @@ class _Cells:
         minv = np.where(self.empty[:, None, None], np.eye(3), minv)
         # any positive scale of M^-1 is the same LTC: isotropic, the engines' M^-1[1][1] (= 1 / b
         # > 0); anisotropic, |det M^-1|^(1/3), since there M^-1[1][1] passes through 0 and
-        # changes sign (and a negative scale sends the lobe below the horizon)
-        norm = (minv[:, 1, 1] if self.isotropic else np.cbrt(np.abs(np.linalg.det(minv))))
-        minv_n = minv / norm[:, None, None]
+        # changes sign (and a negative scale sends the lobe below the horizon), after the
+        # rotation that makes M^-1 unique (``_canonical``)
+        if self.isotropic:
+            minv_n = minv / minv[:, 1:2, 1:2]
+        else:
+            minv_n = _canonical(minv)
+            minv_n /= np.cbrt(np.abs(np.linalg.det(minv_n)))[:, None, None]
         L3, L3_se, L1, L1_se = errors
         vals = np.concatenate([minv_n.reshape(n, 9), np.stack([self.E, self.B, L3, L1], 1)], 1)
         errs = np.concatenate([np.zeros((n, 9)),
