@@ -259,15 +259,17 @@ def test_anisotropic_fit_of_an_isotropic_lobe():
 
 
 def test_anisotropic_table_matrices_are_the_fitted_lobes():
-    """The stored (normalised) M^-1 of anisotropic cells, given back to ltc_errors, have the
-    errors fit_ltc reported (the same samples): the normalisation is a positive scale. By
-    M^-1[1][1], which is negative or near 0 in some of these cells, it was not: L1 near 2."""
+    """The stored M^-1 of anisotropic cells, given back to ltc_errors, have the errors fit_ltc
+    reported, within 4 standard errors (the same uniforms; the canonical rotation turns the
+    LTC's own samples): normalisation and rotation keep the LTC. By M^-1[1][1], negative or
+    near 0 in some of these cells, the normalisation did not: L1 near 2."""
     from clbrdf.tables.ltc import fit_ltc, ltc_errors, ltc_matrix
     axes = {"alpha_x": [0.05, 0.37, 1.0], "alpha_y": [0.05, 0.37, 1.0], "mu": [0.5],
             "phi": [0.0, 0.8]}
     t = fit_ltc("ggx", axes, samples=256, max_iter=100)
     again = ltc_errors("ggx", axes, ltc_matrix(t))
-    assert np.allclose(again["L1"], t["L1"], rtol=1e-4, atol=1e-6), (again["L1"], t["L1"])
+    se = np.hypot(again["L1_stderr"], t["L1_stderr"])
+    assert np.all(np.abs(again["L1"] - t["L1"]) <= 4 * se + 1e-5), (again["L1"], t["L1"])
     assert t.computed["normalised_by"] == "|det M^-1|^(1/3)"
     assert np.allclose(np.linalg.det(ltc_matrix(t)), 1, rtol=1e-5)
 
