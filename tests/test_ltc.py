@@ -233,6 +233,56 @@ def test_threejs_files(ggx_cells, tmp_path):
         assert np.array_equal(got, want)
 
 
+
+@pytest.mark.parametrize("layout", ["eevee", "ue"])
+def test_engine_layouts_read_back(ggx_cells, layout, tmp_path):
+    """EEVEE's and UE's textures, read as their shaders read them (clbrdf/data/ltc_layouts.json:
+    EEVEE's ltc_matrix, GLSL columns (x, 0, y), (0, 1, 0), (z, 0, w); UE's LTC, HLSL rows
+    (x, 0, z), (0, 1, 0), (y, 0, w); UE's y + (x - y) F0) give the fit's M^-1 and E(F0); the
+    .h compiles and holds them, the .exr too."""
+    import shutil
+    import subprocess
+    from clbrdf.tables.ltc import ltc_matrix
+    from clbrdf.tables.ltc_layouts import save_ltc, textures
+    _, fit, _ = ggx_cells
+    tex = textures(layout, fit)
+    mat, mag = tex.values()
+    x, y, z, w = np.moveaxis(mat, -1, 0)
+    one, zero = np.ones_like(x), np.zeros_like(x)
+    if layout == "eevee":
+        cols = [np.stack([x, zero, y], -1), np.stack([zero, one, zero], -1), np.stack([z, zero, w], -1)]
+        minv = np.stack(cols, axis=-1)              # mat3(c0, c1, c2): columns
+    else:
+        rows = [np.stack([x, zero, z], -1), np.stack([zero, one, zero], -1), np.stack([y, zero, w], -1)]
+        minv = np.stack(rows, axis=-2)              # float3x3 {r0, r1, r2}: rows
+    assert np.allclose(minv, ltc_matrix(fit), rtol=1e-6, atol=1e-7)
+    for f0 in (0.04, 0.5, 1.0):
+        want = f0 * (fit["E"] - fit["B"]) + fit["B"]
+        assert np.allclose(mag[..., 1] + (mag[..., 0] - mag[..., 1]) * f0, want, rtol=1e-6)
+    outs = [tmp_path / "ltc.h", tmp_path / "ltc.npz"]
+    try:
+        import OpenEXR
+        outs.append(tmp_path / "ltc.exr")
+    except ImportError:
+        OpenEXR = None
+    save_ltc(layout, fit, tex, outs)
+    names = list(tex)
+    if OpenEXR is not None:
+        with OpenEXR.File(str(tmp_path / "ltc.exr"), separate_channels=True) as f:
+            parts = {p.name(): p.channels for p in f.parts}
+            assert set(parts[names[1]]) == {"R", "G"}
+            assert np.array_equal(parts[names[1]]["G"].pixels, mag[..., 1].astype(np.float32))
+    if shutil.which("gcc"):
+        n = mat.size
+        (tmp_path / "main.c").write_text(
+            '#include <stdio.h>\n#include "ltc.h"\nint main(void) { for (int i = 0; i < '
+            f'{n}; ++i) printf("%.9g\\n", {names[0]}[i]); return 0; }}\n')
+        subprocess.run(["gcc", "-std=c99", "-Wall", "-Werror", "-o", "main", "main.c"],
+                       cwd=tmp_path, check=True)
+        got = np.float32(subprocess.run(["./main"], cwd=tmp_path, capture_output=True,
+                                        text=True, check=True).stdout.split())
+        assert np.array_equal(got, mat.astype(np.float32).reshape(-1))
+
 def test_ring_lobe_fit_is_not_stuck():
     """Charlie sheen at normal incidence and alpha 0.05 is a ring at the horizon, which no
     single moment-matched cosine fits: from that start alone Nelder-Mead stalled at L1 1.1 with
