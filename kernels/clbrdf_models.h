@@ -546,6 +546,38 @@ FN real_t clbrdf_sgd_bagher_pdf(const clbrdf_sgd_bagher_params *p, vec3 wo, vec3
 /* wi, weight = f cos(theta_i) / pdf per channel, and pdf; u: the first sgd_bagher_SAMPLE_DIMS numbers are used */
 FN BSample clbrdf_sgd_bagher_sample(const clbrdf_sgd_bagher_params *p, vec3 wo, rand4 u) { return sgd_bagher_sample(p, wo, u); }
 
+/* ---- oren_nayar (Oren-Nayar diffuse: EON (energy-preserving), FON, QON): kernels/oren_nayar.h ---- */
+#ifndef ON_FORM
+#define ON_FORM 0
+#endif
+#ifndef ON_ALBEDO
+#define ON_ALBEDO 0
+#endif
+#ifndef ON_SAMPLER
+#define ON_SAMPLER 0
+#endif
+typedef struct {
+    real_t rho[CHANNELS];     /* diffuse albedo, [0, 1], default 0.8 */
+    real_t r;                 /* roughness (qon: sigma in radians), [0, 1], default 0.5 */
+} clbrdf_oren_nayar_params;
+#define oren_nayar_params clbrdf_oren_nayar_params
+
+#include "oren_nayar.h"
+
+FN clbrdf_oren_nayar_params clbrdf_oren_nayar_defaults(void)
+{
+    clbrdf_oren_nayar_params p;
+    for (int c = 0; c < CHANNELS; ++c) p.rho[c] = (real_t)0.8;
+    p.r = (real_t)0.5;
+    return p;
+}
+/* f(wo, wi) per channel (1/sr), without the cosine */
+FN spec clbrdf_oren_nayar_eval(const clbrdf_oren_nayar_params *p, vec3 wo, vec3 wi) { return oren_nayar_eval(p, wo, wi); }
+/* density (1/sr) of wi under clbrdf_oren_nayar_sample, given wo */
+FN real_t clbrdf_oren_nayar_pdf(const clbrdf_oren_nayar_params *p, vec3 wo, vec3 wi) { return oren_nayar_pdf(p, wo, wi); }
+/* wi, weight = f cos(theta_i) / pdf per channel, and pdf; u: the first oren_nayar_SAMPLE_DIMS numbers are used */
+FN BSample clbrdf_oren_nayar_sample(const clbrdf_oren_nayar_params *p, vec3 wo, rand4 u) { return oren_nayar_sample(p, wo, u); }
+
 /* ---- schlick (Schlick 1994 customizable reflectance (SINGLE / DOUBLE, eq 12/15/17/18)): kernels/schlick.h ---- */
 #ifndef SCH_DOUBLE
 #define SCH_DOUBLE 0
