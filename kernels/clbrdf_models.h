@@ -98,6 +98,8 @@ typedef struct {
     real_t alpha_y;           /* roughness along the bitangent y (anisotropic), [0.0001, 10], default 0.5 */
     real_t f0[CHANNELS];      /* Schlick Fresnel reflectance at normal incidence, [0, 1], default 0.04 */
     real_t f90[CHANNELS];     /* Schlick Fresnel reflectance at grazing incidence (generalised Schlick), [0, 1], default 1 */
+    real_t exponent;          /* exponent of the generalised Schlick term (1 - c)^exponent (Cycles), (0, 1000], default 5 */
+    real_t f82[CHANNELS];     /* F82-tint: reflectance at cos 1/7 as a fraction of Schlick's (Hoffman 2023), [0, 1], default 1 */
     real_t eta[CHANNELS];     /* relative index of refraction (dielectric) or its real part (conductor), (0, 100], default 1.5 */
     real_t k[CHANNELS];       /* extinction coefficient (conductor), [0, 100], default 3 */
     real_t ks[CHANNELS];      /* scale of the specular term, [0, 1e+06], default 1 */
@@ -120,6 +122,8 @@ FN clbrdf_microfacet_params clbrdf_ggx_defaults(void)
     p.alpha_y = (real_t)0.5;
     for (int c = 0; c < CHANNELS; ++c) p.f0[c] = (real_t)0.04;
     for (int c = 0; c < CHANNELS; ++c) p.f90[c] = (real_t)1.0;
+    p.exponent = (real_t)5.0;
+    for (int c = 0; c < CHANNELS; ++c) p.f82[c] = (real_t)1.0;
     for (int c = 0; c < CHANNELS; ++c) p.eta[c] = (real_t)1.5;
     for (int c = 0; c < CHANNELS; ++c) p.k[c] = (real_t)3.0;
     for (int c = 0; c < CHANNELS; ++c) p.ks[c] = (real_t)1.0;
@@ -147,6 +151,8 @@ FN clbrdf_microfacet_params clbrdf_beckmann_defaults(void)
     p.alpha_y = (real_t)0.5;
     for (int c = 0; c < CHANNELS; ++c) p.f0[c] = (real_t)0.04;
     for (int c = 0; c < CHANNELS; ++c) p.f90[c] = (real_t)1.0;
+    p.exponent = (real_t)5.0;
+    for (int c = 0; c < CHANNELS; ++c) p.f82[c] = (real_t)1.0;
     for (int c = 0; c < CHANNELS; ++c) p.eta[c] = (real_t)1.5;
     for (int c = 0; c < CHANNELS; ++c) p.k[c] = (real_t)3.0;
     for (int c = 0; c < CHANNELS; ++c) p.ks[c] = (real_t)1.0;
@@ -174,6 +180,8 @@ FN clbrdf_microfacet_params clbrdf_exppow_defaults(void)
     p.alpha_y = (real_t)0.5;
     for (int c = 0; c < CHANNELS; ++c) p.f0[c] = (real_t)0.04;
     for (int c = 0; c < CHANNELS; ++c) p.f90[c] = (real_t)1.0;
+    p.exponent = (real_t)5.0;
+    for (int c = 0; c < CHANNELS; ++c) p.f82[c] = (real_t)1.0;
     for (int c = 0; c < CHANNELS; ++c) p.eta[c] = (real_t)1.5;
     for (int c = 0; c < CHANNELS; ++c) p.k[c] = (real_t)3.0;
     for (int c = 0; c < CHANNELS; ++c) p.ks[c] = (real_t)1.0;
@@ -201,6 +209,8 @@ FN clbrdf_microfacet_params clbrdf_gtr_defaults(void)
     p.alpha_y = (real_t)0.5;
     for (int c = 0; c < CHANNELS; ++c) p.f0[c] = (real_t)0.04;
     for (int c = 0; c < CHANNELS; ++c) p.f90[c] = (real_t)1.0;
+    p.exponent = (real_t)5.0;
+    for (int c = 0; c < CHANNELS; ++c) p.f82[c] = (real_t)1.0;
     for (int c = 0; c < CHANNELS; ++c) p.eta[c] = (real_t)1.5;
     for (int c = 0; c < CHANNELS; ++c) p.k[c] = (real_t)3.0;
     for (int c = 0; c < CHANNELS; ++c) p.ks[c] = (real_t)1.0;
@@ -228,6 +238,8 @@ FN clbrdf_microfacet_params clbrdf_sgd_defaults(void)
     p.alpha_y = (real_t)0.5;
     for (int c = 0; c < CHANNELS; ++c) p.f0[c] = (real_t)0.04;
     for (int c = 0; c < CHANNELS; ++c) p.f90[c] = (real_t)1.0;
+    p.exponent = (real_t)5.0;
+    for (int c = 0; c < CHANNELS; ++c) p.f82[c] = (real_t)1.0;
     for (int c = 0; c < CHANNELS; ++c) p.eta[c] = (real_t)1.5;
     for (int c = 0; c < CHANNELS; ++c) p.k[c] = (real_t)3.0;
     for (int c = 0; c < CHANNELS; ++c) p.ks[c] = (real_t)1.0;

@@ -17,6 +17,25 @@ FN realN fresnel_schlick_f90(realN f0, realN f90, realN c)
     return f0 + (f90 - f0) * (m2 * m2 * m);
 }
 
+/* Cycles' generalised Schlick with a free exponent: F0 + (F90 - F0)(1 - c)^e, e > 0. */
+FN realN fresnel_gen_schlick(realN f0, realN f90, realN e, realN c)
+{
+    return f0 + (f90 - f0) * pow_pos(clamp(1 - c, (realN)0, (realN)1), e);
+}
+
+/* F82-tint (Hoffman 2023, "Generalization of Adobe's Fresnel model", OpenPBR's metal):
+ * Schlick's F minus a c (1 - c)^6, a fixing F(1/7) = tint F_Schlick(1/7):
+ * a = (1 - tint) F_Schlick(1/7) / (c' (1 - c')^6), c' = 1/7, 1 / (c' (1 - c')^6) = 7^7 / 6^6.
+ * For small F0 and tint the subtraction goes below 0 (F0 = 0, tint = 0: from c = 0.15 to
+ * 0.85); F is clamped at 0 there (docs/models/microfacet.md). */
+FN realN fresnel_f82(realN f0, realN tint, realN c)
+{
+    realN m = clamp(1 - c, (realN)0, (realN)1), m2 = m * m;
+    realN b5 = (realN)0.46266436603796024;                /* (6/7)^5 */
+    realN a = (1 - tint) * (f0 + (1 - f0) * b5) * (realN)17.65138460219479;   /* 7^7 / 6^6 */
+    return fmax(f0 + (1 - f0) * (m2 * m2 * m) - a * c * m2 * m2 * m2, (realN)0);
+}
+
 /* eta^2 - sin^2 theta for c = cos theta, from whichever of (eta - 1)(eta + 1) + c^2 and
  * eta^2 - (1 - c)(1 + c) has the smaller rounding error (eps (|eta^2 - 1| + c^2) against
  * eps (eta^2 + sin^2)): the first is exact at eta = 1, where the second loses c^2 at grazing; the

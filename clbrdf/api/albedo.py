@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..models.microfacet import FRESNEL_NAMES
 from ..models.spec import ParameterError, check_int, check_mu, finite_or_raise
 from ..runtime.albedo import run_probe, runner
 from ..runtime.launch import seed_words
@@ -295,12 +296,12 @@ def fresnel_avg(name: str = "ggx", *, nodes: int = FRESNEL_AVG_NODES, precision:
     eval / eval with F = 1 at the mirror pair wo = (sin, 0, mu), wi = (-sin, 0, mu) (h = z,
     wi.h = mu; D, G and 4 cos_i cos_o cancel), by Gauss-Legendre in mu split at the critical
     angle (as ``albedo_avg``). Parameters other than the Fresnel ones are not used."""
-    fres = {k: v for k, v in params.items() if k in ("fresnel", "f0", "f90", "eta", "k",
-                                                     "channels")}
+    takes = ("fresnel",) + FRESNEL_NAMES + ("channels",)
+    fres = {k: v for k, v in params.items() if k in takes}
     extra = sorted(set(params) - set(fres))
     if extra:
-        raise ParameterError(f"fresnel_avg takes the Fresnel parameters (fresnel, f0, f90, eta, "
-                             f"k, channels), not {', '.join(extra)}")
+        raise ParameterError(f"fresnel_avg takes the Fresnel parameters ({', '.join(takes)}), "
+                             f"not {', '.join(extra)}")
     m = Model(name, precision=precision, device=device, **fres)
     if m.options.get("fresnel") is None:
         raise ParameterError(f"model {name} has no Fresnel term")

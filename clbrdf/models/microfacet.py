@@ -29,6 +29,10 @@ PARAMS = (
     Param("f0", "Schlick Fresnel reflectance at normal incidence", 0.0, 1.0, 0.04, spectral=True),
     Param("f90", "Schlick Fresnel reflectance at grazing incidence (generalised Schlick)", 0.0,
           1.0, 1.0, spectral=True),
+    Param("exponent", "exponent of the generalised Schlick term (1 - c)^exponent (Cycles)", 0.0,
+          1000.0, 5.0, lo_open=True),
+    Param("f82", "F82-tint: reflectance at cos 1/7 as a fraction of Schlick's (Hoffman 2023)",
+          0.0, 1.0, 1.0, spectral=True),
     Param("eta", "relative index of refraction (dielectric) or its real part (conductor)",
           0.0, 100.0, 1.5, lo_open=True, spectral=True),
     Param("k", "extinction coefficient (conductor)", 0.0, 100.0, 3.0, spectral=True),
@@ -39,12 +43,16 @@ PARAMS = (
 OPTIONS = (
     Option("masking", "masking-shadowing term G",
            ("correlated", "separable", "vcavity", "none"), "correlated"),
-    Option("fresnel", "Fresnel term F", ("one", "schlick", "dielectric", "conductor"), "one"),
+    Option("fresnel", "Fresnel term F", ("one", "schlick", "gen_schlick", "f82", "dielectric",
+                                          "conductor"), "one"),
     Option("sampler", "importance sampler of the specular lobe: visible normals or normals",
            ("vndf", "ndf"), "vndf"),
 )
 
-FRESNEL_PARAMS = {"one": (), "schlick": ("f0",), "dielectric": ("eta",), "conductor": ("eta", "k")}
+FRESNEL_PARAMS = {"one": (), "schlick": ("f0",), "gen_schlick": ("f0", "f90", "exponent"),
+                  "f82": ("f0", "f82"), "dielectric": ("eta",), "conductor": ("eta", "k")}
+# every parameter of a Fresnel term (fresnel_avg, the tables' Fresnel axes)
+FRESNEL_NAMES = ("f0", "f90", "exponent", "f82", "eta", "k")
 
 
 def configure(dist: str, shape: str | None = None, header: str | None = None,
@@ -60,6 +68,7 @@ def configure(dist: str, shape: str | None = None, header: str | None = None,
         fresnel = opts.get("fresnel")
         if fresnel is None:
             fresnel = ("conductor" if {"eta", "k"} <= given else "dielectric" if "eta" in given
+                       else "gen_schlick" if "exponent" in given else "f82" if "f82" in given
                        else "schlick" if {"f0", "f90"} & given else "one")
         masking = opts.get("masking", "correlated")
         sampler = opts.get("sampler", samplers[0])

@@ -39,12 +39,13 @@ from .quadrature import (
 MODELS = ("lambert", "beckmann", "ggx")
 DISTRIBUTIONS = ("beckmann", "ggx")
 MASKINGS = ("none", "vcavity", "separable", "correlated")
-FRESNELS = ("one", "schlick", "dielectric", "conductor")
+FRESNELS = ("one", "schlick", "gen_schlick", "f82", "dielectric", "conductor")
 LOBE_SAMPLERS = ("ndf", "vndf")
 SAMPLERS = ("uniform", "cosine", "ndf", "vndf", "brdf", "mis")
 
-DEFAULTS = {"alpha": 0.5, "f0": 0.04, "eta": 1.5, "k": 3.0}
-FRESNEL_PARAMS = {"one": (), "schlick": ("f0",), "dielectric": ("eta",), "conductor": ("eta", "k")}
+DEFAULTS = {"alpha": 0.5, "f0": 0.04, "eta": 1.5, "k": 3.0, "f90": 1.0, "exponent": 5.0, "f82": 1.0}
+FRESNEL_PARAMS = {"one": (), "schlick": ("f0",), "gen_schlick": ("f0", "f90", "exponent"),
+                  "f82": ("f0", "f82"), "dielectric": ("eta",), "conductor": ("eta", "k")}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -124,12 +125,21 @@ def G(masking, dist, wo, wi, h, alpha_x, alpha_y):
     return np.where(side, g, 0.0)
 
 
-def fresnel(kind, c, f0=None, eta=None, k=None, f90=None):
+def fresnel(kind, c, f0=None, eta=None, k=None, f90=None, exponent=None, f82=None):
     """Unpolarised Fresnel reflectance at cos(angle) c (c = wi.h); Schlick's with f90 (default 1)
-    is the generalised F0 + (F90 - F0)(1 - c)^5."""
+    is the generalised F0 + (F90 - F0)(1 - c)^5; gen_schlick has a free exponent (Cycles);
+    f82 is Hoffman 2023's F82-tint, Schlick's minus a c (1 - c)^6 with F(1/7) = f82 times
+    Schlick's there, clamped at 0 (docs/models/microfacet.md)."""
     c = np.asarray(c, float)
     if kind == "one":
         return np.ones_like(c)
+    if kind == "gen_schlick":
+        return f0 + ((1.0 if f90 is None else f90) - f0) * np.clip(1 - c, 0, 1) ** exponent
+    if kind == "f82":
+        cb = 1 / 7
+        schlick = lambda x: f0 + (1 - f0) * (1 - x) ** 5           # noqa: E731
+        a = (schlick(cb) - f82 * schlick(cb)) / (cb * (1 - cb) ** 6)
+        return np.maximum(schlick(c) - a * c * (1 - c) ** 6, 0)
     if kind == "schlick":
         return f0 + ((1.0 if f90 is None else f90) - f0) * (1 - c) ** 5
     if kind == "dielectric":
@@ -169,6 +179,7 @@ def configure(model, **kw):
     kind = kw.pop("fresnel", None)
     if kind is None:
         kind = ("conductor" if {"eta", "k"} <= set(kw) else "dielectric" if "eta" in kw
+                else "gen_schlick" if "exponent" in kw else "f82" if "f82" in kw
                 else "schlick" if {"f0", "f90"} & set(kw) else "one")
     for name, value, choices in (("masking", masking, MASKINGS), ("fresnel", kind, FRESNELS),
                                  ("lobe_sampler", lobe, LOBE_SAMPLERS)):
@@ -193,7 +204,8 @@ def configure(model, **kw):
 
 
 def _fresnel(cfg, c):
-    return fresnel(cfg["fresnel"], c, cfg.get("f0"), cfg.get("eta"), cfg.get("k"), cfg.get("f90"))
+    return fresnel(cfg["fresnel"], c, cfg.get("f0"), cfg.get("eta"), cfg.get("k"), cfg.get("f90"),
+                   cfg.get("exponent"), cfg.get("f82"))
 
 
 def _isotropic(cfg):
@@ -454,7 +466,7 @@ class MicrofacetReference(Reference):
     def F(self, c, v):
         """ks times the Fresnel term of the configuration at cosine c."""
         return v.get("ks", 1.0) * fresnel(self.options["fresnel"], c, v.get("f0"), v.get("eta"), v.get("k"),
-                                          v.get("f90"))
+                                          v.get("f90"), v.get("exponent"), v.get("f82"))
 
     def eval1(self, wo, wi, v, c):
         ci, co = wi[..., 2], wo[..., 2]

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..api.albedo import fresnel_avg
 from ..api.model import Model
+from ..models.microfacet import FRESNEL_NAMES
 from ..models.spec import ParameterError
 from .axes import VIEW, check_form, evaluated, midpoints, parse_axis
 from .compute import albedo_table
@@ -24,7 +25,7 @@ from .table import ENCODINGS, Table, encode
 CHECK_SAMPLES = 1 << 18   # samples per midpoint of the interpolation check (at most)
 QUANTITIES = ("E", "1-E", "E_avg", "1-E_avg", "A", "B", "A_avg", "B_avg", "F_avg", "E_kc", "1-E_kc",
               "E_kc_avg", "1-E_kc_avg")
-FRESNEL_AXES = ("f0", "f90", "eta", "k")
+FRESNEL_AXES = FRESNEL_NAMES           # axes the Kulla-Conty F_ms splits off
 
 
 def layouts() -> dict:
@@ -217,12 +218,12 @@ def _fresnel_table(model, name, qs, axl, fixed, value_range, encoding, layout, k
     """F_avg over axes of Fresnel parameters (``clbrdf.api.albedo.fresnel_avg``: deterministic, the
     kernel's own F; stderr 0)."""
     axl = [check_form(a) for a in axl]
-    bad = [a["name"] for a in axl if a["name"] not in ("f0", "f90", "eta", "k")]
+    bad = [a["name"] for a in axl if a["name"] not in FRESNEL_NAMES]
     if bad:
-        raise ParameterError(f"table {name}: F_avg has axes of Fresnel parameters (f0, f90, eta, "
-                             f"k), not {', '.join(bad)}")
+        raise ParameterError(f"table {name}: F_avg has axes of Fresnel parameters "
+                             f"({', '.join(FRESNEL_NAMES)}), not {', '.join(bad)}")
     grids = np.meshgrid(*[evaluated(a) for a in axl], indexing="ij")
-    fres = {k: v for k, v in (fixed or {}).items() if k in ("fresnel", "f0", "f90", "eta", "k")}
+    fres = {k: v for k, v in (fixed or {}).items() if k in ("fresnel",) + FRESNEL_NAMES}
     values = fresnel_avg(model, **fres, **{a["name"]: g for a, g in zip(axl, grids)},
                          **{k: kw[k] for k in ("device",) if k in kw})
     if value_range is not None:
