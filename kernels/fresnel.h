@@ -26,8 +26,8 @@ FN realN fresnel_gen_schlick(realN f0, realN f90, realN e, realN c)
 /* F82-tint (Hoffman 2023, "Generalization of Adobe's Fresnel model", OpenPBR's metal):
  * Schlick's F minus a c (1 - c)^6, a fixing F(1/7) = tint F_Schlick(1/7):
  * a = (1 - tint) F_Schlick(1/7) / (c' (1 - c')^6), c' = 1/7, 1 / (c' (1 - c')^6) = 7^7 / 6^6.
- * For small F0 and tint the subtraction goes below 0 (F0 = 0, tint = 0: from c = 0.15 to
- * 0.85); F is clamped at 0 there (docs/models/microfacet.md). */
+ * Below tint 0.52 the subtraction can go below 0 (tint 0: for every F0 < 0.995, around
+ * c = 1/7; tint 0.25: F0 < 0.085); F is clamped at 0 there (docs/models/microfacet.md). */
 FN realN fresnel_f82(realN f0, realN tint, realN c)
 {
     realN m = clamp(1 - c, (realN)0, (realN)1), m2 = m * m;

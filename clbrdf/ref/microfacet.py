@@ -164,6 +164,18 @@ def fresnel(kind, c, f0=None, eta=None, k=None, f90=None, exponent=None, f82=Non
 # ---------------------------------------------------------------------------------------------
 # Parameters
 
+def fresnel_avg_closed(kind, f0, f90=1.0, exponent=5.0, f82=1.0):
+    """F_avg = 2 int F(c) c dc in closed form: gen_schlick F0 + (F90 - F0) 2 / ((n + 1)(n + 2));
+    f82 Schlick's F0 + (1 - F0) / 21 minus a / 126 (2 int c^2 (1 - c)^6 dc = 1/126), valid
+    where the F82-tint term is not clamped (tint >= 0.52 for every F0)."""
+    if kind == "gen_schlick":
+        return f0 + (f90 - f0) * 2 / ((exponent + 1) * (exponent + 2))
+    if kind == "f82":
+        cb = 1 / 7
+        a = (1 - f82) * (f0 + (1 - f0) * (1 - cb) ** 5) / (cb * (1 - cb) ** 6)
+        return f0 + (1 - f0) / 21 - a / 126
+    raise ValueError(f"no closed form here for fresnel={kind!r}")
+
 def configure(model, **kw):
     """Resolve options and parameters: a dict with every value the formulas need."""
     kw = dict(kw)
