@@ -169,7 +169,12 @@ ALWAYS_INLINE BSample oren_nayar_sample(const oren_nayar_params *p, vec3 wo, ran
     realN R = sqrt(u.u0);
     realN x = R * cp, y = R * sp;
     realN sc = (realN)0.5 * (1 + rsqrt(d * d + 1));
-    x = -(sqrt((1 - y) * (1 + y)) * (1 - sc) + x * sc);           /* the clipped disk */
+    /* the clipped disk, on the side away from the horizon for either sign of d: the listing's
+     * x = -mix(sqrt(1 - y^2), x, sc) assumes d <= 0, but the fit of d is positive for
+     * mu > 0.99978, where that clip sent samples below the horizon (E low by 4.3e-7 at r = 1,
+     * mu = 1; docs/models/oren_nayar.md) */
+    realN side = sel((realN)-1, (realN)1, d > 0);
+    x = side * (sqrt((1 - y) * (1 + y)) * (1 - sc) + x * sc);
     realN hz = sqrt(fmax(1 - (x * x + y * y), (realN)0));
     vec3 l = v3(a * x + b * hz, c * y, d * x + hz);                /* M w_h, in wo's frame */
     vec3 wc = normalize3(v3(cx * l.x - sx * l.y, sx * l.x + cx * l.y, l.z));

@@ -61,3 +61,22 @@ def test_fon_and_qon_lose_energy():
     assert abs(qon.albedo(1.0)[0] - 0.624) < 1e-3
     gain = reference("oren_nayar", form="qon", rho=1.0, r=0.3).albedo(1e-3)[0]
     assert 1.003 < gain < 1.008, gain
+
+
+@pytest.mark.parametrize("r", [0.3, 1.0])
+@pytest.mark.parametrize("mu", [1.0, 1 - 1e-5, 0.9998, 0.999])
+def test_cltc_clip_is_on_the_right_side_near_normal_incidence(r, mu):
+    """The fit of d changes sign at mu = 0.99978 (positive above); the listing's clip assumed
+    d <= 0 and sent samples below the horizon there: the quadrature in the sampler's square was
+    4.3e-7 low at r = 1, mu = 1, against its error estimate of 3.4e-9. Now no CLTC sample falls
+    below the horizon, and the quadrature matches the reference within its estimate."""
+    m = clbrdf.Model("oren_nayar", r=r, precision="double")
+    rng = np.random.default_rng(3)
+    u = rng.random((1 << 16, 4))
+    u[:, 2] = 0.999                         # the CLTC lobe (P_u < 0.5)
+    wo = np.array([np.sqrt(1 - mu * mu), 0.0, mu])
+    wi, weight, pdf = m.sample(wo, u)
+    assert np.all(wi[:, 2] > 0) and np.all(pdf > 0)
+    q = clbrdf.albedo(m, mu, estimator="quadrature")
+    e, err = reference(m).albedo(mu, tol=1e-11)
+    assert abs(float(q.albedo) - e) <= 4 * float(q.stderr) + err + 1e-12, (q.albedo, e)
