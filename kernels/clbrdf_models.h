@@ -98,7 +98,7 @@ typedef struct {
     real_t alpha_y;           /* roughness along the bitangent y (anisotropic), [0.0001, 10], default 0.5 */
     real_t f0[CHANNELS];      /* Schlick Fresnel reflectance at normal incidence, [0, 1], default 0.04 */
     real_t f90[CHANNELS];     /* Schlick Fresnel reflectance at grazing incidence (generalised Schlick), [0, 1], default 1 */
-    real_t exponent;          /* exponent of the generalised Schlick term (1 - c)^exponent (Cycles), (0, 1000], default 5 */
+    real_t exponent;          /* exponent of the generalised Schlick term (1 - c)^exponent (Cycles), (0, 100000], default 5 */
     real_t f82[CHANNELS];     /* F82-tint: reflectance at cos 1/7 as a fraction of Schlick's (Hoffman 2023), [0, 1], default 1 */
     real_t eta[CHANNELS];     /* relative index of refraction (dielectric) or its real part (conductor), (0, 100], default 1.5 */
     real_t k[CHANNELS];       /* extinction coefficient (conductor), [0, 100], default 3 */

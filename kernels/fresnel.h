@@ -62,6 +62,17 @@ FN realN fresnel_dielectric(realN eta, realN c)
     return sel(F, (realN)1, g2 < 0);
 }
 
+/* Cycles' Principled BSDF (its generalised Schlick with exponent < 0): the exact dielectric
+ * curve of eta remapped onto [F0, F90], F0 + (F90 - F0) s with
+ * s = saturate((F_d(c) - F_d(1)) / (1 - F_d(1))), F_d(1) = ((eta - 1)/(eta + 1))^2; the clamp
+ * acts where F_d dips below its normal value (eta above about 4, near Brewster's angle). */
+FN realN fresnel_remapped(realN f0, realN f90, realN eta, realN c)
+{
+    realN r = (eta - 1) / (eta + 1), r0 = r * r;
+    realN s = clamp((fresnel_dielectric(eta, c) - r0) / (1 - r0), (realN)0, (realN)1);
+    return f0 + (f90 - f0) * s;
+}
+
 /* The reflectance F and, in *T, the transmittance 1 - F without the cancellation of 1 - F where
  * F is near 1 (grazing c, or near the critical angle), sharing g: with
  * r_s = (c - g)/(c + g) and r_p = (eta^2 c - g)/(eta^2 c + g), F = (r_s^2 + r_p^2)/2 (Born &

@@ -9,7 +9,7 @@
  * | gamma / p        | shape of the GTR / SGD / exp-power NDF    | per header   |
  * | f0 (per channel) | Schlick reflectance at normal incidence   | [0, 1]       |
  * | f90 (per channel)| Schlick reflectance at grazing (MF_F90)   | [0, 1]       |
- * | exponent         | generalised Schlick's exponent            | (0, 1000]    |
+ * | exponent         | generalised Schlick's exponent            | (0, 1e5]     |
  * | f82 (per channel)| F82-tint (FRESNEL_F82)                    | [0, 1]       |
  * | eta (per channel)| relative index (dielectric), or real part | (0, 100]     |
  * | k (per channel)  | extinction coefficient (conductor)        | [0, 100]     |
@@ -22,9 +22,10 @@
  *   MF_KS       0 | 1: the specular scale ks
  *   MF_F90      0 | 1: Schlick's F with f90 (else f90 = 1)
  *   MF_ANISO    0: alpha; 1: alpha_x, alpha_y
- *   MF_MASKING  MASKING_NONE | MASKING_VCAVITY | MASKING_SEPARABLE | MASKING_CORRELATED
+ *   MF_MASKING  MASKING_NONE | MASKING_VCAVITY | MASKING_SEPARABLE | MASKING_CORRELATED |
+ *               MASKING_UNSHADOWED (G1(wo) alone)
  *   MF_FRESNEL  FRESNEL_ONE | FRESNEL_SCHLICK | FRESNEL_GEN_SCHLICK | FRESNEL_F82 |
- *               FRESNEL_DIELECTRIC | FRESNEL_CONDUCTOR
+ *               FRESNEL_REMAPPED | FRESNEL_DIELECTRIC | FRESNEL_CONDUCTOR
  *   MF_DIFFUSE  0 | 1
  *   MF_SAMPLER  SAMPLER_NDF | SAMPLER_VNDF
  *
@@ -46,6 +47,7 @@
 #define FRESNEL_CONDUCTOR 3
 #define FRESNEL_GEN_SCHLICK 4
 #define FRESNEL_F82 5
+#define FRESNEL_REMAPPED 6
 #define microfacet_SAMPLE_DIMS (MF_DIFFUSE ? 3 : 2)   /* numbers microfacet_sample uses */
 
 FN Microfacet mf_distribution(const microfacet_params *p)
@@ -73,6 +75,8 @@ FN realN mf_fresnel(const microfacet_params *p, realN c, int ch)
     realN F = fresnel_gen_schlick(p->f0[ch], p->f90[ch], p->exponent, c);
 #elif MF_FRESNEL == FRESNEL_F82
     realN F = fresnel_f82(p->f0[ch], p->f82[ch], c);
+#elif MF_FRESNEL == FRESNEL_REMAPPED
+    realN F = fresnel_remapped(p->f0[ch], p->f90[ch], p->eta[ch], c);
 #elif MF_FRESNEL == FRESNEL_DIELECTRIC
     realN F = fresnel_dielectric(p->eta[ch], c);
 #elif MF_FRESNEL == FRESNEL_CONDUCTOR

@@ -1,7 +1,10 @@
 /* Smith masking-shadowing of a microfacet distribution MF_DIST (microfacet_distributions.h),
  * shared by the reflection model (microfacet.h) and the rough dielectric (dielectric.h):
  * G1 = 1 / (1 + Lambda), and G2 by MF_MASKING: height-correlated 1 / (1 + Lambda(wo) +
- * Lambda(wi)) (Heitz 2014, section 6), separable G1(wo) G1(wi), or Cook-Torrance's V-cavity.
+ * Lambda(wi)) (Heitz 2014, section 6), separable G1(wo) G1(wi), Cook-Torrance's V-cavity, or
+ * G1(wo) alone (unshadowed: the visible normals' own measure, whose albedo is the mean over
+ * visible normals of F times wi above the horizon, as Cycles' gen-Schlick tables; not
+ * reciprocal).
  * Lambda takes |w.z|, so that a direction below the surface is masked as its mirror image
  * (docs/models/microfacet.md, docs/models/dielectric.md).
  */
@@ -12,6 +15,7 @@
 #define MASKING_VCAVITY 1
 #define MASKING_SEPARABLE 2
 #define MASKING_CORRELATED 3
+#define MASKING_UNSHADOWED 4
 #define SAMPLER_NDF 0
 #define SAMPLER_VNDF 1
 
@@ -45,6 +49,8 @@ FN realN mf_G(Microfacet m, vec3 wo, vec3 wi, vec3 h)
     return mf_G1(m, wi) * mf_G1(m, wo);
 #elif MF_MASKING == MASKING_VCAVITY
     return vcavity_G(wo, wi, h);
+#elif MF_MASKING == MASKING_UNSHADOWED
+    return mf_G1(m, wo);
 #else
     return (realN)1;
 #endif
@@ -58,6 +64,9 @@ FN realN mf_G_over_G1(Microfacet m, vec3 wo, vec3 wi, vec3 h)
     return mf_G1c(m, wi, 1 + MF(Lambda)(m, wo));
 #elif MF_MASKING == MASKING_SEPARABLE
     return mf_G1(m, wi);
+#elif MF_MASKING == MASKING_UNSHADOWED
+    (void)m;
+    return (realN)1;
 #else
     return mf_G(m, wo, wi, h) * (1 + MF(Lambda)(m, wo));
 #endif

@@ -231,6 +231,59 @@ def test_glass_white_furnace_is_one_at_the_table_nodes(cycles_glass):
                                np.broadcast_to(ior[:, None] ** 2, (3, 3)), rtol=1e-12)
 
 
+GS = ("table_ggx_gen_schlick_ior_s", "table_ggx_gen_schlick_s")
+
+
+@pytest.fixture(scope="module")
+def cycles_gen_schlick():
+    lay = get_layout("cycles")
+    out = {}
+    for tab in lay["tables"]:
+        if tab["name"] in GS:
+            model, fixed = table_config(lay, tab)
+            out[tab["name"]] = compute_table(model, tab["name"], tab["quantity"], tab["axes"],
+                                             fixed=fixed, value_range=tab.get("range"),
+                                             samples=NG, check_interpolation=False)
+    return out
+
+
+def test_cycles_gen_schlick_tables_match_the_shipped_ones(cycles_gen_schlick):
+    """Cycles' factor s of F = mix(F0, F90, s) (cycles_precompute.cpp: the mean over visible
+    normals of the Fresnel weight, 0 below the horizon) is E of ggx with masking=unshadowed and
+    F0 = 0, F90 = 1 (layouts.json notes). Every cell of both shipped tables within the combined
+    standard error (published 2^20 samples), but r = 0: Cycles' r = 0 is a mirror (alpha 1e-8,
+    h = n), clbrdf's GGX alpha 1e-4, which masks at mu = 1e-4 (every z) and, with the smallest
+    exponents (0.36 and 0.05, z = 14/15 and 1), spreads c = wi.h below 1 at mu = 1, where
+    (1 - c)^0.05 is far from the mirror's 0. Cycles' r = 0 column is the mirror's s exactly:
+    (1 - mu)^exponent and saturate((F(mu) - F0) / (1 - F0)), to its 6 printed decimals
+    (float32 rounding besides: 4e-6)."""
+    from clbrdf.ref.microfacet import fresnel
+    rows_ = [r.split(",") for r in rows("cycles_ggx_gen_schlick_s.csv")]
+    ref = {GS[0]: np.array([float(r[3]) for r in rows_]).reshape(16, 16, 16),
+           GS[1]: np.array([float(r[4]) for r in rows_]).reshape(16, 16, 16)}
+    expect = {GS[0]: [[k, 0, 0] for k in range(1, 16)],
+              GS[1]: sorted([[k, 0, 0] for k in range(16)] + [[14, 15, 0], [15, 15, 0]])}
+    for name in GS:
+        t = cycles_gen_schlick[name]
+        d = t.values - ref[name]
+        sigma = t.stderr * np.sqrt(1 + NG / 2 ** 20)
+        bad = np.abs(d) > z_bound(d.size) * sigma + 5e-7 + 8 * EPS32 + 3 / NG
+        assert sorted(np.argwhere(bad).tolist()) == expect[name], np.argwhere(bad).tolist()
+    z = np.clip(np.arange(16) / 15, 1e-4, 0.99)[:, None]
+    mu = np.clip(np.arange(16) / 15, 1e-4, 1)[None, :]
+    f32 = np.float32
+    # 1 - mu and the exponent rounded to float32 as Cycles has them (exponent 49995 turns the
+    # rounding of 1 - 1e-4 into 6e-6 of s)
+    mirror_s = (f32(1) - mu.astype(f32)).astype(float) ** (f32(5) * (f32(1) - z.astype(f32))
+                                                           / z.astype(f32)).astype(float)
+    ior = (1 + z * z) / (1 - z * z)
+    f0 = ((ior - 1) / (ior + 1)) ** 2
+    mirror_ior = np.clip((fresnel("dielectric", mu, eta=ior) - f0) / (1 - f0), 0, 1)
+    mirror_ior[0] = 0.0                       # z = 1e-4: ior 1 + 2e-8 rounds to 1.0f, s = 0
+    assert np.abs(ref[GS[1]][:, :, 0] - mirror_s).max() < 4e-6
+    assert np.abs(ref[GS[0]][:, :, 0] - mirror_ior).max() < 4e-6
+
+
 def test_ue5_glass_table_matches_its_shipped_rows():
     """UE5's GGXGlass (R: E entering at eta = 1 + 2 z, G: E exiting at 1 / (1 + 2 z), texel
     centres; ShadingEnergyConservationData.h) at four shipped rows (tests/data/renderers/

@@ -136,7 +136,7 @@ def _layout_table(args, outs) -> int:
         check_out(o)
     lay = get_layout(args.layout)
     given = any(a in ("--samples", "-n") or a.startswith(("--samples=", "-n")) for a in args.argv)
-    samples = args.samples if given else lay.get("samples", 1 << 16)
+    samples = args.samples if given else None        # None: each table's published count
     why = choose_estimator(args)          # brdf with Sobol points unless --estimator
     est = args.estimator
     model_for(lay["model"], args, dict(lay.get("fixed", {})))      # no device: fail before work
@@ -157,7 +157,8 @@ def _layout_table(args, outs) -> int:
               f"({t.encoding}), largest stderr {float(t.stderr.max()):.2g}")
     how = (f"quadrature (tol {next(iter(tables.values())).meta['computed'].get('tol')})"
            if est == "quadrature" else
-           f"{samples} samples per cell, {est}{' + qmc' if args.qmc else ''}")
+           f"{samples or 'the published number of'} samples per cell, "
+           f"{est}{' + qmc' if args.qmc else ''}")
     print(f"layout {args.layout}: {how}, {seconds:.1f} s; wrote {', '.join(map(str, written))}")
     if why:
         note(args, f"no --estimator: {why}")

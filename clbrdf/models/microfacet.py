@@ -30,7 +30,7 @@ PARAMS = (
     Param("f90", "Schlick Fresnel reflectance at grazing incidence (generalised Schlick)", 0.0,
           1.0, 1.0, spectral=True),
     Param("exponent", "exponent of the generalised Schlick term (1 - c)^exponent (Cycles)", 0.0,
-          1000.0, 5.0, lo_open=True),
+          1e5, 5.0, lo_open=True),
     Param("f82", "F82-tint: reflectance at cos 1/7 as a fraction of Schlick's (Hoffman 2023)",
           0.0, 1.0, 1.0, spectral=True),
     Param("eta", "relative index of refraction (dielectric) or its real part (conductor)",
@@ -42,15 +42,16 @@ PARAMS = (
 
 OPTIONS = (
     Option("masking", "masking-shadowing term G",
-           ("correlated", "separable", "vcavity", "none"), "correlated"),
-    Option("fresnel", "Fresnel term F", ("one", "schlick", "gen_schlick", "f82", "dielectric",
-                                          "conductor"), "one"),
+           ("correlated", "separable", "vcavity", "none", "unshadowed"), "correlated"),
+    Option("fresnel", "Fresnel term F", ("one", "schlick", "gen_schlick", "f82", "remapped",
+                                          "dielectric", "conductor"), "one"),
     Option("sampler", "importance sampler of the specular lobe: visible normals or normals",
            ("vndf", "ndf"), "vndf"),
 )
 
 FRESNEL_PARAMS = {"one": (), "schlick": ("f0",), "gen_schlick": ("f0", "f90", "exponent"),
-                  "f82": ("f0", "f82"), "dielectric": ("eta",), "conductor": ("eta", "k")}
+                  "f82": ("f0", "f82"), "remapped": ("f0", "f90", "eta"), "dielectric": ("eta",),
+                  "conductor": ("eta", "k")}
 # every parameter of a Fresnel term (fresnel_avg, the tables' Fresnel axes)
 FRESNEL_NAMES = ("f0", "f90", "exponent", "f82", "eta", "k")
 
@@ -105,7 +106,7 @@ def critical_mu(defines: dict, values: dict, channels: int):
     parameters, not its name: a conductor with eta < 1 and k ~ 0 has the dielectric's kink."""
     import numpy as np
     fres = defines.get("MF_FRESNEL")
-    if fres not in ("FRESNEL_DIELECTRIC", "FRESNEL_CONDUCTOR"):
+    if fres not in ("FRESNEL_DIELECTRIC", "FRESNEL_REMAPPED", "FRESNEL_CONDUCTOR"):
         return None
     eta = np.asarray(values["eta"], dtype=np.float64)
     k = np.asarray(values["k"], dtype=np.float64) if fres == "FRESNEL_CONDUCTOR" else 0.0

@@ -38,14 +38,15 @@ from .quadrature import (
 
 MODELS = ("lambert", "beckmann", "ggx")
 DISTRIBUTIONS = ("beckmann", "ggx")
-MASKINGS = ("none", "vcavity", "separable", "correlated")
-FRESNELS = ("one", "schlick", "gen_schlick", "f82", "dielectric", "conductor")
+MASKINGS = ("none", "vcavity", "separable", "correlated", "unshadowed")
+FRESNELS = ("one", "schlick", "gen_schlick", "f82", "remapped", "dielectric", "conductor")
 LOBE_SAMPLERS = ("ndf", "vndf")
 SAMPLERS = ("uniform", "cosine", "ndf", "vndf", "brdf", "mis")
 
 DEFAULTS = {"alpha": 0.5, "f0": 0.04, "eta": 1.5, "k": 3.0, "f90": 1.0, "exponent": 5.0, "f82": 1.0}
 FRESNEL_PARAMS = {"one": (), "schlick": ("f0",), "gen_schlick": ("f0", "f90", "exponent"),
-                  "f82": ("f0", "f82"), "dielectric": ("eta",), "conductor": ("eta", "k")}
+                  "f82": ("f0", "f82"), "remapped": ("f0", "f90", "eta"), "dielectric": ("eta",),
+                  "conductor": ("eta", "k")}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -116,7 +117,9 @@ def G(masking, dist, wo, wi, h, alpha_x, alpha_y):
     side = half_cos(wo, wi) > 0            # wo.h = wi.h for the half vector h of (wo, wi)
     li = Lambda(dist, wi, alpha_x, alpha_y)
     lo = Lambda(dist, wo, alpha_x, alpha_y)
-    if masking == "separable":
+    if masking == "unshadowed":                          # masking of wo alone
+        g = 1 / (1 + lo)
+    elif masking == "separable":
         g = 1 / ((1 + li) * (1 + lo))
     elif masking == "correlated":
         g = 1 / (1 + li + lo)
@@ -128,6 +131,7 @@ def G(masking, dist, wo, wi, h, alpha_x, alpha_y):
 def fresnel(kind, c, f0=None, eta=None, k=None, f90=None, exponent=None, f82=None):
     """Unpolarised Fresnel reflectance at cos(angle) c (c = wi.h); Schlick's with f90 (default 1)
     is the generalised F0 + (F90 - F0)(1 - c)^5; gen_schlick has a free exponent (Cycles);
+    remapped carries the dielectric curve of eta from [F(1), 1] onto [F0, F90] (Cycles);
     f82 is Hoffman 2023's F82-tint, Schlick's minus a c (1 - c)^6 with F(1/7) = f82 times
     Schlick's there, clamped at 0 (docs/models/microfacet.md)."""
     c = np.asarray(c, float)
@@ -142,6 +146,11 @@ def fresnel(kind, c, f0=None, eta=None, k=None, f90=None, exponent=None, f82=Non
         return np.maximum(schlick(c) - a * c * (1 - c) ** 6, 0)
     if kind == "schlick":
         return f0 + ((1.0 if f90 is None else f90) - f0) * (1 - c) ** 5
+    if kind == "remapped":
+        # Cycles' Principled BSDF: where the exact dielectric curve lies between its normal
+        # value and 1, as a fraction, carried onto [F0, F90]
+        fd, fn = fresnel("dielectric", c, eta=eta), fresnel("dielectric", 1.0, eta=eta)
+        return f0 + (f90 - f0) * np.clip((fd - fn) / (1 - fn), 0, 1)
     if kind == "dielectric":
         # Cook-Torrance 1982: g = sqrt(eta^2 + c^2 - 1); total internal reflection when g^2 < 0
         g2 = eta ** 2 + c ** 2 - 1
@@ -445,6 +454,11 @@ class MicrofacetReference(Reference):
     """f = ks F(wi.h) D(h) G(wo, wi, h) / (4 cos_i cos_o) + kd / pi (docs/models/microfacet.md). A
     subclass for another distribution overrides ``D``, ``Lambda`` and ``hv_map``."""
 
+    def __init__(self, spec, config, params):
+        super().__init__(spec, config, params)
+        # G1(wo) alone (masking without shadowing) is not symmetric in (wo, wi)
+        self.reciprocal = self.options.get("masking") != "unshadowed"
+
     def rough(self):
         v = self.params
         if "alpha_x" in v:
@@ -472,7 +486,8 @@ class MicrofacetReference(Reference):
             return G("vcavity", None, wo, wi, h, 1.0, 1.0)
         side = half_cos(wo, wi) > 0
         li, lo = self.Lambda(wi), self.Lambda(wo)
-        g = 1 / ((1 + li) * (1 + lo)) if masking == "separable" else 1 / (1 + li + lo)
+        g = (1 / ((1 + li) * (1 + lo)) if masking == "separable" else 1 / (1 + lo)
+             if masking == "unshadowed" else 1 / (1 + li + lo))
         return np.where(side, g, 0.0)
 
     def F(self, c, v):

@@ -121,9 +121,9 @@ def _drop(kw, *names):
 # Each rung: (name, function (model name, kw) -> [(label, model name, kw)], the choices it offers)
 def _masking(name, kw):
     m = kw.get("masking")
-    if m is None or m == "none":
-        return []
     order = ("correlated", "separable", "vcavity", "none")
+    if m not in order[:-1]:              # none, or unshadowed (a table's quantity, not a surface)
+        return []
     return [(f"masking={c}", name, {**kw, "masking": c}) for c in order[order.index(m) + 1:]
             if c != m]
 

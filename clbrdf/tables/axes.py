@@ -21,7 +21,8 @@ tables, z = F0^(1/4) = sqrt((ior - 1)/(ior + 1)), with eta = ior = (1 + z^2)/(1 
 (entering, ``ior_z``) or eta = 1/ior (exiting, ``inv_ior_z``; a wo above a surface of relative
 index 1/ior is a wo below one of ior); ``inv_eta`` an index of refraction given by its
 reciprocal, eta = 1 / v (the exiting tables of UE5 and MoonRay, indexed by the ior of the glass
-that wo is inside).
+that wo is inside); ``exponent_z`` the generalised Schlick exponent of Cycles' gen-Schlick table,
+exponent = 5 (1 - z) / z (z = 1/2 is Schlick's 5), z = 1 / (exponent / 5 + 1).
 """
 from __future__ import annotations
 
@@ -45,6 +46,8 @@ MAPPED = {
     "inv_ior_z": ("eta", "eta = (1 - z^2) / (1 + z^2)", lambda z: (1 - z * z) / (1 + z * z),
                   lambda e: np.sqrt((1 - e) / (1 + e))),
     "inv_eta": ("eta", "eta = 1 / v", lambda v: 1 / v, lambda e: 1 / e),
+    "exponent_z": ("exponent", "exponent = 5 (1 - z) / z", lambda z: 5 * (1 - z) / z,
+                   lambda e: 1 / (0.2 * e + 1)),
 }
 
 VIEW = ("mu",) + tuple(k for k, m in MAPPED.items() if m[0] == "mu")   # axes of wo's polar angle

@@ -294,9 +294,9 @@ def make_layout(name: str, *, samples=None, estimator=None, progress=False, comm
     """Every table of layout ``name`` (clbrdf/data/layouts.json) at the layout's published sample
     count unless ``samples`` is given; returns {table name: Table}. ``estimator``: every
     channel's; None: brdf, and a channel of another model its layout's choice (Filament's cloth
-    channel: mis). ``only``: the names of the tables to make (default: all)."""
+    channel: mis). ``only``: the names of the tables to make (default: all). A table's own
+    ``samples`` (its published count) overrides the layout's."""
     lay = get_layout(name)
-    samples = lay.get("samples", 1 << 16) if samples is None else samples
     names = [t["name"] for t in lay["tables"]]
     if only is not None:
         only = [only] if isinstance(only, str) else list(only)
@@ -308,10 +308,12 @@ def make_layout(name: str, *, samples=None, estimator=None, progress=False, comm
     for tab in lay["tables"]:
         if only is not None and tab["name"] not in only:
             continue
-        t = layout_table(lay, tab, layout=name, samples=samples, estimator=estimator,
+        published = tab.get("samples", lay.get("samples"))
+        n = (published or 1 << 16) if samples is None else samples
+        t = layout_table(lay, tab, layout=name, samples=n, estimator=estimator,
                          progress=progress, command=command, **kw)
         t.meta.update({"consumer": lay["consumer"], "source": lay["source"],
                        "notes": lay.get("notes", ""),
-                       "published_samples": lay.get("samples")})
+                       "published_samples": published})
         out[tab["name"]] = t
     return out
