@@ -60,7 +60,8 @@ def test_every_preset_builds_and_is_finite(model):
         assert m.channels == 3
         f = m.eval(wo, wi)
         assert f.shape == (4, 3) and np.all(np.isfinite(f)) and np.all(f >= 0), (name, f)
-    for name in MATERIALS:
+    for name in [n for n in MATERIALS if n in presets.materials(model)] or \
+            presets.materials(model)[:5]:
         m = clbrdf.Model(model, preset=name)
         r = clbrdf.albedo(m, [0.1, 0.6, 1.0], samples=4096)
         assert np.all(np.isfinite(r.albedo)) and np.all(r.albedo >= 0), (name, r.albedo)
@@ -106,7 +107,7 @@ def test_preset_errors_and_overrides():
     with pytest.raises(ParameterError, match="alum-bronz.*similar: alum-bronze"):
         clbrdf.Model("beckmann", preset="alum-bronz")
     with pytest.raises(ParameterError, match="no presets"):
-        clbrdf.Model("ggx", preset="alum-bronze")
+        clbrdf.Model("ward", preset="alum-bronze")
     with pytest.raises(ParameterError, match="source 'E3'"):
         clbrdf.Model("beckmann", preset="alum-bronze:E3")
     m = clbrdf.Model("beckmann", preset="alum-bronze", alpha=0.3)

@@ -171,5 +171,12 @@ def low_cook_torrance(fit: dict):
              "kd": fit["Lambertian"]["albedo"]})
 
 
+def metal(row: dict):
+    """A conductor of published optical constants (metals_rgb.csv: n + i k at R, G, B)."""
+    return ({"fresnel": "conductor"},
+            {"eta": [row[f"eta_{c}"] for c in "rgb"], "k": [row[f"k_{c}"] for c in "rgb"]})
+
+
 PRESETS = {"low_cooktorrance_E2.fit": ("beckmann", low_cook_torrance),
-           "low_cooktorrance_E1.fit": ("beckmann", low_cook_torrance)}
+           "low_cooktorrance_E1.fit": ("beckmann", low_cook_torrance),
+           "metals_rgb.csv": [("ggx", metal), ("beckmann", metal)]}

@@ -3,8 +3,9 @@
 The fits ship with the package (``clbrdf/data/published_fits``, with ``SOURCES.md``). A model
 module declares which fits belong to it in ``PRESETS``: a dict from a fit file to a function that
 turns one material's fit into ``(options, params)`` for ``Model(name, channels=3, ...)``, or to
-``(model name, function)`` when the module defines several models. The first file listed for a
-model is its default source; ``MATERIAL:SOURCE`` picks another (``alum-bronze:E1``).
+``(model name, function)`` when the module defines several models (or a list of them, for a file
+that several models take). The first file listed for a model is its default source;
+``MATERIAL:SOURCE`` picks another (``alum-bronze:E1``).
 
 >>> clbrdf.Model("low_microfacet", preset="alum-bronze")
 >>> clbrdf.presets.get("beckmann", "alum-bronze:E1").params
@@ -31,6 +32,7 @@ ATTRIBUTION = {
     "low_cooktorrance_E2.fit": "Löw et al. 2012 (Cook-Torrance fits, E2 metric), via bsdfbenchmark/bbm fits/ (BSD-3-Clause)",
     "low_ashikhminshirley_E1.fit": "Löw et al. 2012 (Ashikhmin-Shirley fits, E1 metric), via bsdfbenchmark/bbm fits/ (BSD-3-Clause)",
     "low_ashikhminshirley_E2.fit": "Löw et al. 2012 (Ashikhmin-Shirley fits, E2 metric), via bsdfbenchmark/bbm fits/ (BSD-3-Clause)",
+    "metals_rgb.csv": "Johnson & Christy 1972 (Au, Ag, Cu), 1974 (Cr), Rakic 1995 (Al), via the refractiveindex.info database (CC0)",
 }
 
 
@@ -132,10 +134,9 @@ def sources() -> dict[str, list[tuple[str, object]]]:
                 if len(specs) != 1:
                     raise RuntimeError(f"clbrdf.models.{info.name}.PRESETS[{source!r}] must name its "
                                        "model: the module defines several")
-                name, fn = specs[0].name, entry
-            else:
-                name, fn = entry
-            out.setdefault(name, []).append((source, fn))
+                entry = (specs[0].name, entry)
+            for name, fn in (entry if isinstance(entry, list) else [entry]):
+                out.setdefault(name, []).append((source, fn))
     return out
 
 
@@ -148,7 +149,8 @@ def materials(model: str) -> list[str]:
 
 
 def get(model: str, material: str) -> Preset:
-    """The preset ``material`` (or ``material:source``) of ``model``."""
+    """The preset ``material`` (or ``material:source``) of ``model``: from the model's default
+    source, or the first of its other sources that has the material."""
     src = sources().get(model)
     if not src:
         have = ", ".join(sorted(sources())) or "none"
@@ -160,8 +162,8 @@ def get(model: str, material: str) -> Preset:
             raise ParameterError(f"preset source {which!r} is not valid for {model}: choose one of "
                                  f"{', '.join(_label(s) for s, _ in src)}")
         source, fn = pick[0]
-    else:
-        source, fn = src[0]
+    else:      # the default source, else the first other source that has the material
+        source, fn = next(((s, f) for s, f in src if name in load(s)), src[0])
     fits = load(source)
     if name not in fits:
         close = [m for m in fits if name.lower() in m.lower()][:8]

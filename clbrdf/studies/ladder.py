@@ -6,7 +6,9 @@ combinations of them, in single and double precision:
 
 - ``masking``: height-correlated Smith masking -> separable, V-cavity, none;
 - ``fresnel``: exact (dielectric, conductor) -> Schlick's approximation with the same normal
-  reflectance; any Fresnel term -> F = 1;
+  reflectance; a conductor also -> F82-tint and generalised Schlick fitted to it
+  (``clbrdf.studies.fresnel_fits``: Schlick < generalised Schlick < F82-tint < exact);
+  F82-tint or generalised Schlick -> Schlick with the same F0; any Fresnel term -> F = 1;
 - ``diffuse``: the Lambertian term (kd > 0) dropped (one lobe against two);
 - ``lobes``: Löw et al.'s second smooth lobe dropped;
 - ``directional``, ``spectral``, ``material``: Schlick 1994's directional factor eq 18 -> eq 17,
@@ -59,6 +61,7 @@ from ..api.model import Model
 from ..models import MODELS, get_spec
 from ..models.spec import ParameterError
 from ..tables.outputs import csv_rows, csv_text, write_together
+from .fresnel_fits import fit_conductor
 
 ALBEDO_MUS = (0.02, 0.1, 0.25, 0.5, 0.75, 1.0)
 PAIR_MUS = (0.02, 0.1, 0.3, 0.5, 0.7, 0.9, 1.0)
@@ -129,6 +132,8 @@ def _masking(name, kw):
 
 
 SCHLICK_F0 = {"ashikhmin_shirley": "rs"}        # the model's Schlick normal reflectance
+# models with the microfacet Fresnel terms (kernels/fresnel.h: f82, gen_schlick)
+MICROFACET_FRESNEL = {n for n, s in MODELS.items() if {"f82", "exponent"} <= {p.name for p in s.params}}
 
 
 def _fresnel(name, kw):
@@ -136,6 +141,17 @@ def _fresnel(name, kw):
     if f is None or f == "one":
         return []
     out = []
+    if f == "conductor" and name in MICROFACET_FRESNEL:
+        # F82-tint and generalised Schlick fitted to the exact curve (studies/fresnel_fits.py)
+        bare = _drop(kw, "eta", "k")
+        for kind in ("f82", "gen_schlick"):
+            p = fit_conductor(np.ravel(kw["eta"]), np.ravel(kw["k"]), kind)
+            one = np.size(kw["eta"]) == 1
+            p = {a: (b[0] if one and isinstance(b, list) else b) for a, b in p.items()}
+            out.append((f"fresnel={kind}", name, {**bare, "fresnel": kind, **p}))
+    if f in ("f82", "gen_schlick"):
+        out.append(("fresnel=schlick", name, {**_drop(kw, "f82", "f90", "exponent"),
+                                              "fresnel": "schlick"}))
     if f in ("dielectric", "conductor"):
         out.append(("fresnel=schlick", name, {**_drop(kw, "eta", "k"), "fresnel": "schlick",
                                               SCHLICK_F0.get(name, "f0"): _fresnel_f0(kw)}))
