@@ -52,6 +52,13 @@ MODEL_SWEEPS = {
                    {"points": 256, "growth": 4}),
     "schlick": ("schlick", {}, ["c=0:1", "r=1e-7:1:log", "p=1e-6:1:log", "psi=0:3.14159"]),
     "ward": ("ward", {}, ["alpha_x=0.001:1:log", "alpha_y=0.001:1:log", "ks=0:1"]),
+    "oren_nayar": ("oren_nayar", {}, ["rho=0:1", "r=0:1"]),
+    "oren_nayar-approx": ("oren_nayar", {"albedo": "approx"}, ["rho=0:1", "r=0:1"]),
+    "oren_nayar-fon": ("oren_nayar", {"form": "fon"}, ["rho=0:1", "r=0:1"]),
+    "oren_nayar-qon": ("oren_nayar", {"form": "qon"}, ["rho=0:1", "r=0:1"]),
+    "ggx-f82": ("ggx", {"fresnel": "f82"}, ["alpha=1e-4:10:log", "f0=0:1", "f82=0:1"]),
+    "ggx-gen-schlick": ("ggx", {"fresnel": "gen_schlick"},
+                        ["alpha=1e-4:10:log", "f0=0:1", "f90=0:1", "exponent=0.1:100:log"]),
 }
 
 
