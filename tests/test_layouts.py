@@ -1207,3 +1207,43 @@ def test_the_users_estimator_applies_to_every_channel():
     for given, want in ((None, ["brdf", "mis"]), ("cosine", ["cosine", "cosine"])):
         t = layout_table(lay, tab, samples=64, estimator=given, check_interpolation=False)
         assert [p["computed"]["estimator"] for p in t.meta["parts"]] == want, given
+
+
+def test_eevee_split_sum_with_the_f82_channel():
+    """EEVEE's bsdf_split_sum_ggx (layouts.json: scale A, bias B, metal_bias M; separable
+    Smith): M against a float64 quadrature of int c (1 - c)^6 f cos dwi over (cos, phi) of the
+    reference's f (F = 1) at four cells, and F0 A + B - a M, the split sum with the F82 term,
+    against the reference's albedo of ggx with fresnel=f82 at F0 0.6, tint 0.5 there: each within
+    the Sidak bound of its standard error plus the quadrature's 1e-6."""
+    from clbrdf.ref import reference
+    n = 1 << 16
+    t = make_layout("eevee", samples=n)["bsdf_split_sum_ggx"]
+    assert t.quantity == ["A", "B", "metal_bias"] and t.shape == (64, 64)
+    x, w = np.polynomial.legendre.leggauss(300)
+    cells = [(10, 20), (32, 32), (50, 45), (20, 63)]
+    zb = z_bound(2 * len(cells))
+    K = 7 ** 7 / 6 ** 6
+    f0, tint = 0.6, 0.5
+    a = (1 - tint) * (f0 + (1 - f0) * (6 / 7) ** 5) * K
+    for i, j in cells:
+        y, r = i / 63, j / 63
+        mu, alpha = 1 - y * y, r * r
+        ref = reference("ggx", alpha=alpha, masking="separable")
+        wo = np.array([np.sqrt(1 - mu * mu), 0.0, mu])
+        ci = (x + 1) / 2
+        phi = np.pi * (x + 1) / 2                     # symmetric in phi: [0, pi], twice
+        C, P = np.meshgrid(ci, phi, indexing="ij")
+        S = np.sqrt(1 - C * C)
+        wi = np.stack([S * np.cos(P), S * np.sin(P), C], -1)
+        f = ref.eval(np.broadcast_to(wo, wi.shape), wi)
+        h = wi + wo
+        h /= np.linalg.norm(h, axis=-1, keepdims=True)
+        c = np.einsum("...k,...k->...", wi, h)
+        m_ref = 2 * np.sum(np.outer(w / 2, w * np.pi / 2) * c * (1 - c) ** 6 * f * C)
+        got, s = t.values[i, j], t.stderr[i, j]
+        assert abs(got[2] - m_ref) <= zb * s[2] + 1e-6, (i, j, got[2], m_ref, s[2])
+        e82, err = reference("ggx", alpha=alpha, masking="separable", fresnel="f82", f0=f0,
+                             f82=tint).albedo(mu, tol=1e-9)
+        split = f0 * got[0] + got[1] - a * got[2]
+        sd = np.sqrt((f0 * s[0]) ** 2 + s[1] ** 2 + (a * s[2]) ** 2)
+        assert abs(split - e82) <= zb * sd + err + 1e-6, (i, j, split, e82, sd)

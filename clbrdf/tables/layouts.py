@@ -24,7 +24,8 @@ from .table import ENCODINGS, Table, encode
 
 CHECK_SAMPLES = 1 << 18   # samples per midpoint of the interpolation check (at most)
 QUANTITIES = ("E", "1-E", "E_avg", "1-E_avg", "A", "B", "A_avg", "B_avg", "F_avg", "E_kc", "1-E_kc",
-              "E_kc_avg", "1-E_kc_avg")
+              "E_kc_avg", "1-E_kc_avg", "M", "M_avg")
+F82_K = 7 ** 7 / 6 ** 6        # the F82-tint's a at tint 0 and F0 = 1 (kernels/fresnel.h)
 FRESNEL_AXES = FRESNEL_NAMES           # axes the Kulla-Conty F_ms splits off
 
 
@@ -53,6 +54,11 @@ def _run(model, axl, qs, fixed, **kw):
     """albedo_table over the axes for quantities qs -> (values, stderr, metadata) with channels
     last when there are several quantities or an RGB model's one (R, G, B)."""
     names = [a["name"] for a in axl]
+    if any(q.split("_")[0] == "M" for q in qs):
+        if len(qs) > 1:
+            raise ParameterError(f"quantities {qs}: M is a table of its own (or a channel given "
+                                 f"as a dict)")
+        return _run_metal_bias(model, axl, qs[0], fixed, **kw)
     kc = ["_kc" in q for q in qs]
     if any(kc):
         if not all(kc) or len(qs) > 1:
@@ -85,6 +91,29 @@ def _expand(arr, have, names):
     broadcast over ``names``."""
     dims = iter(np.shape(arr))
     return np.reshape(arr, [next(dims) if a["name"] in have else 1 for a in names])
+
+
+def _run_metal_bias(model, axl, q, fixed, **kw):
+    """M = int c (1 - c)^6 f cos dwi with F = 1, c = wi.h: EEVEE's metal_bias, the F82-tint's
+    term of the split sum E = F0 A + F90 B - a M (a the tint's coefficient, kernels/fresnel.h).
+    Computed as (E - E_82) / 7^7 6^-6 with E_82 the albedo of the F82-tint at F0 = 1 and tint
+    0, F = 1 - 7^7 6^-6 c (1 - c)^6, which is never below 0 (its minimum, at c = 1/7, is 0), so
+    its clamp never acts; same seeds for both. The stderr adds the two estimates' in quadrature
+    (they correlate positively, so it is an upper bound). M_avg likewise from E_avg."""
+    base = {k: v for k, v in (fixed or {}).items() if k not in FRESNEL_AXES + ("fresnel",)}
+    if Model(model, **base, **{k: kw[k] for k in ("device", "precision") if k in kw}).channels > 1:
+        raise ParameterError(f"{q} of an RGB model: not made; give a single-channel configuration")
+    bad = [a["name"] for a in axl if a["name"] in FRESNEL_AXES]
+    if bad:
+        raise ParameterError(f"{q} is the lobe's own (F = 1): no Fresnel axis ({', '.join(bad)})")
+    plain = "E_avg" if q.endswith("_avg") else "E"
+    v1, s1, t = _run(model, axl, [plain], {**base, "fresnel": "one"}, **kw)
+    v2, s2, _ = _run(model, axl, [plain], {**base, "fresnel": "f82", "f0": 1.0, "f82": 0.0}, **kw)
+    meta = json.loads(json.dumps(t.computed))
+    meta["quantity"] = {q: "int c (1 - c)^6 f cos dwi (F = 1, c = wi.h) = (E - E_82) 6^6 / 7^7, "
+                           "E_82 with the F82-tint at F0 = 1, tint 0 (EEVEE's metal_bias)"}
+    t.meta = {**t.meta, "computed": meta}
+    return (v1 - v2) / F82_K, np.hypot(s1, s2) / F82_K, t
 
 
 def _run_kc(model, axl, q, fixed, **kw):
