@@ -45,7 +45,7 @@ def test_presets_are_the_tabulated_constants_at_the_rgb_wavelengths():
 @pytest.mark.parametrize("metal", METALS)
 def test_fits_match_the_conductor_where_they_are_defined_to(metal):
     """Schlick and F82 take F(1); F82 also F(1/7) unless its tint clips at 1 (gold's green
-    channel: F(1/7) is 1.6e-3 above Schlick's there); the generalised Schlick exponent is a
+    channel: F(1/7) is 1.2 % above Schlick's there); the generalised Schlick exponent is a
     least-squares minimum; the kernel's F_avg of each fit equals the fit's own quadrature."""
     p = clbrdf.presets.get("ggx", metal).params
     eta, k = np.ravel(p["eta"]), np.ravel(p["k"])
