@@ -1,0 +1,115 @@
+"""Multiple scattering between microfacets by a random walk on the microsurface (Heitz, Hanika,
+d'Eon & Dachsbacher 2016, "Multiple-scattering microfacet BSDFs with the Smith model"), in
+float64 NumPy, one walk per array element: the reference of energy compensation.
+
+The microsurface is the Smith model's: heights uniform in [-1, 1] (C1(h) = (h + 1) / 2), slopes
+of the GGX or Beckmann distribution (alpha_x, alpha_y). A walk starts above the surface going
+down along -wo (the paper's wi is our wo: the direction the light leaves toward), and repeats
+(the paper's Algorithm 1 and section 4):
+
+- the next height: along a direction w of Lambda(w) (Lambda(-w) = -1 - Lambda(w) for w going
+  down), the ray from height h0 leaves without hitting with probability G1(w, h0) = C1(h0)^Lambda
+  (w going up; 0 going down); else it hits at h = C1^-1(C1(h0) / (1 - U)^(1 / Lambda)) (eq 12-14);
+- at a hit, a normal m from the visible normals of the reversed ray -w (Heitz 2018's VNDF by
+  spherical caps, Dupuy & Benyoub 2023, valid for -w on either side), the reflection about m,
+  and the throughput times F(-w . m).
+
+Where it leaves, the walk's direction is wi and its throughput the weight: the mean weight is the
+directional albedo of the multiple-scattering BRDF, the weights of the walks that left after k
+hits that of the k-th order (k = 1 is the single-scattering BRDF with height-correlated masking
+G2 = 1 / (1 + Lambda(wo) + Lambda(wi)), the paper's section 4.3). A walk still on the surface after
+``max_order`` hits is cut: its energy is lost and counted (``lost``).
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.special import erf
+
+from .microfacet import fresnel
+
+H_START = 1.0 + 1e-4        # above the highest microfacet (heights in [-1, 1])
+
+
+def _lambda(dist, w, ax, ay):
+    """Smith Lambda of direction w for either sign of w.z: Lambda(-w) = -1 - Lambda(w)."""
+    z = w[..., 2]
+    s2 = (ax * w[..., 0]) ** 2 + (ay * w[..., 1]) ** 2          # alpha^2 sin^2 theta
+    up = np.abs(z)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if dist == "ggx":
+            lam = 0.5 * (np.sqrt(1 + s2 / (up * up)) - 1)
+        elif dist == "beckmann":
+            a = up / np.sqrt(s2)
+            lam = 0.5 * (erf(a) - 1) + np.exp(-a * a) / (2 * a * np.sqrt(np.pi))
+        else:
+            raise ValueError(f"dist={dist!r}: ggx or beckmann")
+    lam = np.where(s2 == 0, 0.0, lam)
+    return np.where(z >= 0, lam, -1 - lam)
+
+
+def _next_height(dist, w, h0, u, ax, ay):
+    """Height of the next hit along w from h0, or +inf where the ray leaves (eq 12-14)."""
+    z = w[..., 2]
+    c0 = (np.clip(h0, -1, 1) + 1) / 2
+    lam = _lambda(dist, w, ax, ay)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        g1 = np.where(z > 0, c0 ** lam, 0.0)                    # leaves without a hit
+        c = c0 / (1 - u) ** (1 / lam)
+        h = 2 * np.clip(c, 0, 1) - 1
+    leave = (z >= 0) & (u > 1 - g1)
+    return np.where(leave, np.inf, h)
+
+
+def _vndf(dist, wv, u1, u2, ax, ay):
+    """A normal m of the visible normals of wv (either side): GGX by spherical caps (Dupuy &
+    Benyoub 2023); Beckmann by the visible-slope inversion of Heitz & d'Eon 2014 is not given
+    here (GGX only)."""
+    if dist != "ggx":
+        raise NotImplementedError("the reference walk samples GGX's visible normals only")
+    v = np.stack([ax * wv[..., 0], ay * wv[..., 1], wv[..., 2]], -1)
+    v /= np.linalg.norm(v, axis=-1, keepdims=True)
+    phi = 2 * np.pi * u1
+    cz = (1 - u2) * (1 + v[..., 2]) - v[..., 2]                 # uniform in (-v.z, 1]
+    sz = np.sqrt(np.clip(1 - cz * cz, 0, None))
+    c = np.stack([sz * np.cos(phi), sz * np.sin(phi), cz], -1)
+    h = v + c
+    m = np.stack([ax * h[..., 0], ay * h[..., 1], np.maximum(h[..., 2], 0)], -1)
+    return m / np.linalg.norm(m, axis=-1, keepdims=True)
+
+
+def walk(wo, n, *, dist="ggx", alpha_x=0.5, alpha_y=None, max_order=64, seed=0,
+         fresnel_kind="one", **fresnel_params):
+    """n random walks from wo (a unit vector above the surface): (wi, weight, order, lost), wi
+    the direction each leaves along ((n, 3), NaN where cut), weight its throughput (0 where
+    cut), order its number of hits, lost the number of walks cut at max_order."""
+    ay = alpha_x if alpha_y is None else alpha_y
+    ax = alpha_x
+    rng = np.random.default_rng(seed)
+    w = np.broadcast_to(-np.asarray(wo, float), (n, 3)).copy()
+    h = np.full(n, H_START)
+    weight = np.ones(n)
+    order = np.zeros(n, dtype=np.int64)
+    alive = np.ones(n, dtype=bool)
+    cut = np.zeros(n, dtype=bool)
+    while alive.any():
+        idx = np.flatnonzero(alive)
+        u = rng.random((idx.size, 3))
+        hn = _next_height(dist, w[idx], h[idx], u[:, 0], ax, ay)
+        out = ~np.isfinite(hn)
+        alive[idx[out]] = False                                 # left: w is wi
+        hit = idx[~out]
+        over = order[hit] >= max_order                          # a hit beyond the bound
+        cut[hit[over]] = True
+        alive[hit[over]] = False
+        keep = ~over
+        go, hk, uk = hit[keep], hn[~out][keep], u[~out][keep]
+        h[go] = hk
+        order[go] += 1
+        wv = -w[go]
+        m = _vndf(dist, wv, uk[:, 1], uk[:, 2], ax, ay)
+        c = np.einsum("ij,ij->i", wv, m)
+        weight[go] *= fresnel(fresnel_kind, c, **fresnel_params)
+        w[go] = -wv + 2 * c[:, None] * m
+    w[cut] = np.nan
+    weight[cut] = 0.0
+    return w, weight, order, int(np.count_nonzero(cut))
