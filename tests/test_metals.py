@@ -29,7 +29,7 @@ def _tabulated():
 
 def test_presets_are_the_tabulated_constants_at_the_rgb_wavelengths():
     tab = _tabulated()
-    assert sorted(tab) == sorted(METALS) == clbrdf.presets.materials("ggx")
+    assert sorted(tab) == sorted(METALS) == clbrdf.presets.materials("ggx")     # the default source
     for m in METALS:
         t = tab[m]
         p = clbrdf.presets.get("ggx", m)
@@ -94,3 +94,23 @@ def test_ladder_offers_the_fitted_fresnel_terms_of_a_conductor():
     ladder.measure_errors(vs, "albedo")
     err = {v.label: v.error for v in vs}
     assert err["fresnel=f82"] < 0.01 < err["fresnel=schlick"], err
+
+
+def test_openpbr_defaults():
+    """published_fits/openpbr.md: OpenPBR Surface's defaults as presets of its lobes; at rho 0.8
+    and r 0 EON is Lambert's 0.8 (its quadrature, to 1e-6); each model has only its own rows."""
+    base = clbrdf.Model("oren_nayar", preset="openpbr-base", precision="double")
+    assert base.options["form"] == "eon"
+    e = clbrdf.albedo(base, [0.1, 0.5, 1.0], estimator="quadrature").albedo
+    np.testing.assert_allclose(e, 0.8, atol=1e-6)
+    spec = clbrdf.Model("ggx", preset="openpbr-specular")
+    assert spec.options["fresnel"] == "dielectric" and float(spec.params["alpha"]) == 0.09
+    np.testing.assert_allclose(spec.params["eta"], 1.5)
+    metal = clbrdf.Model("ggx", preset="openpbr-metal", alpha=0.2)
+    assert metal.options["fresnel"] == "f82" and float(metal.params["alpha"]) == 0.2
+    np.testing.assert_allclose(metal.params["f0"], 0.8)
+    np.testing.assert_allclose(metal.params["f82"], 1.0)
+    with pytest.raises(clbrdf.ParameterError, match="not a material of ggx"):
+        clbrdf.Model("ggx", preset="openpbr-base")
+    with pytest.raises(clbrdf.ParameterError, match="not a material of oren_nayar"):
+        clbrdf.Model("oren_nayar", preset="openpbr-metal")

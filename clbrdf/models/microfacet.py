@@ -177,6 +177,20 @@ def metal(row: dict):
             {"eta": [row[f"eta_{c}"] for c in "rgb"], "k": [row[f"k_{c}"] for c in "rgb"]})
 
 
+def openpbr_specular(row: dict):
+    """OpenPBR Surface's specular lobes at their defaults (published_fits/openpbr.md): the
+    dielectric (eta = specular_ior) or the metal (F82-tint, F0 = base_color, tint =
+    specular_color), alpha = specular_roughness^2."""
+    alpha = row["roughness"] ** 2
+    if row["lobe"] == "dielectric":
+        return ({"fresnel": "dielectric"}, {"alpha": alpha, "eta": [row["ior"]] * 3})
+    if row["lobe"] == "metal":
+        return ({"fresnel": "f82"}, {"alpha": alpha, "f0": [row[f"color_{c}"] for c in "rgb"],
+                                     "f82": [row[f"specular_color_{c}"] for c in "rgb"]})
+    raise ParameterError(f"preset {row['name']!r}: lobe {row['lobe']!r} is not a specular one")
+
+
 PRESETS = {"low_cooktorrance_E2.fit": ("beckmann", low_cook_torrance),
            "low_cooktorrance_E1.fit": ("beckmann", low_cook_torrance),
-           "metals_rgb.csv": [("ggx", metal), ("beckmann", metal)]}
+           "metals_rgb.csv": [("ggx", metal), ("beckmann", metal)],
+           "openpbr_specular.csv": ("ggx", openpbr_specular)}

@@ -55,3 +55,12 @@ SPECS = (ModelSpec(
                                          "albedo": "approx", "sampler": "cosine"})),
         sharp={}),
 ),)
+
+
+def openpbr(row: dict):
+    """OpenPBR Surface's diffuse lobe at its defaults (published_fits/openpbr.md)."""
+    return ({"form": "eon"}, {"rho": [row[f"color_{c}"] for c in "rgb"], "r": row["roughness"]})
+
+
+PRESETS = {"openpbr_diffuse.csv": openpbr}
+

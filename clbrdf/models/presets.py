@@ -32,6 +32,8 @@ ATTRIBUTION = {
     "low_cooktorrance_E2.fit": "Löw et al. 2012 (Cook-Torrance fits, E2 metric), via bsdfbenchmark/bbm fits/ (BSD-3-Clause)",
     "low_ashikhminshirley_E1.fit": "Löw et al. 2012 (Ashikhmin-Shirley fits, E1 metric), via bsdfbenchmark/bbm fits/ (BSD-3-Clause)",
     "low_ashikhminshirley_E2.fit": "Löw et al. 2012 (Ashikhmin-Shirley fits, E2 metric), via bsdfbenchmark/bbm fits/ (BSD-3-Clause)",
+    "openpbr_diffuse.csv": "OpenPBR Surface 1.1 defaults (Academy Software Foundation), diffuse lobe",
+    "openpbr_specular.csv": "OpenPBR Surface 1.1 defaults (Academy Software Foundation), specular lobes",
     "metals_rgb.csv": "Johnson & Christy 1972 (Au, Ag, Cu), 1974 (Cr), Rakic 1995 (Al), via the refractiveindex.info database (CC0)",
 }
 
