@@ -4,7 +4,10 @@ as `clbrdf table --layout` makes it), with each table's largest standard error a
 interpolation error (direct estimates halfway between samples on every axis against the table's
 own lookup: what a renderer reading the table between samples gets wrong).
 
-    python scripts/layout_report.py [--out docs/tables.md]
+    python scripts/layout_report.py [--out docs/tables.md] [--only LAYOUT ...]
+
+``--only`` remakes those layouts' sections and keeps the others from the existing file (in the
+order of clbrdf/data/layouts.json; the header's date is then the latest run's).
 """
 import argparse
 import datetime as _dt
@@ -21,7 +24,12 @@ def md_text(s: str) -> str:
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", default="docs/tables.md")
+    ap.add_argument("--only", nargs="*", help="remake only these layouts' sections")
     a = ap.parse_args()
+    old = {}
+    if a.only and Path(a.out).exists():         # the sections kept, by layout name
+        for part in Path(a.out).read_text().split("\n## `")[1:]:
+            old[part.split("`", 1)[0]] = ("## `" + part.rstrip("\n")).split("\n") + [""]
     import clbrdf
     from clbrdf.tables.layouts import layouts, make_layout
     warnings.simplefilter("ignore")
@@ -37,6 +45,9 @@ def main():
              f"layouts renderers load'; against the quadrature: benchmarks/RESULTS.md "
              f"(bench_layouts).", ""]
     for name, lay in layouts().items():
+        if a.only and name not in a.only and name in old:
+            lines += old[name]
+            continue
         t0 = time.perf_counter()
         tables = make_layout(name, qmc=True)
         sec = time.perf_counter() - t0
@@ -51,8 +62,10 @@ def main():
                          f"{' x '.join(str(n) for n in t.shape)} | {t.encoding} | "
                          f"{float(t.stderr.max()):.1e} | "
                          f"{ip.get('max_error', 0):.2g} ({where}) |")
-        lines += ["", f"{lay.get('samples')} samples per cell; {sec:.1f} s with the "
-                      f"interpolation check.", ""]
+        counts = sorted({t.meta.get("published_samples") or lay.get("samples")
+                         for t in tables.values()}, key=lambda x: -(x or 0))
+        lines += ["", f"{' or '.join(str(c) for c in counts)} samples per cell; {sec:.1f} s "
+                      f"with the interpolation check.", ""]
         print(name, f"{sec:.1f} s", flush=True)
     Path(a.out).write_text("\n".join(lines) + "\n")
 

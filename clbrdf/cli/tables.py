@@ -155,10 +155,12 @@ def _layout_table(args, outs) -> int:
     for name, t in tables.items():
         print(f"{name}: {', '.join(t.quantity)} {' x '.join(str(n) for n in t.shape)} "
               f"({t.encoding}), largest stderr {float(t.stderr.max()):.2g}")
+    published = sorted({t.meta.get("published_samples") or 1 << 16 for t in tables.values()},
+                       reverse=True)
+    n = samples or " or ".join(map(str, published))
     how = (f"quadrature (tol {next(iter(tables.values())).meta['computed'].get('tol')})"
            if est == "quadrature" else
-           f"{samples or 'the published number of'} samples per cell, "
-           f"{est}{' + qmc' if args.qmc else ''}")
+           f"{n} samples per cell, {est}{' + qmc' if args.qmc else ''}")
     print(f"layout {args.layout}: {how}, {seconds:.1f} s; wrote {', '.join(map(str, written))}")
     if why:
         note(args, f"no --estimator: {why}")
