@@ -10,9 +10,13 @@ from clbrdf.ref import reference
 from clbrdf.studies.stats import sidak
 
 N = 1 << 18
-CASES = [(0.1, 0.2, 0.0, {}), (0.5, 0.7, 0.0, {}), (1.0, 1.0, 0.0, {}), (1.0, 0.05, 0.0, {}),
-         ((0.05, 0.6), 0.4, 0.7, {}), (0.6, 0.5, 0.0, {"fresnel_kind": "schlick", "f0": 0.3}),
-         (0.3, 0.3, 0.0, {"fresnel_kind": "conductor", "eta": 0.2, "k": 3.0})]
+CASES = [("ggx", 0.1, 0.2, 0.0, {}), ("ggx", 0.5, 0.7, 0.0, {}), ("ggx", 1.0, 1.0, 0.0, {}),
+         ("ggx", 1.0, 0.05, 0.0, {}), ("ggx", (0.05, 0.6), 0.4, 0.7, {}),
+         ("ggx", 0.6, 0.5, 0.0, {"fresnel_kind": "schlick", "f0": 0.3}),
+         ("ggx", 0.3, 0.3, 0.0, {"fresnel_kind": "conductor", "eta": 0.2, "k": 3.0}),
+         ("beckmann", 0.3, 0.5, 0.0, {}), ("beckmann", 1.0, 1.0, 0.0, {}),
+         ("beckmann", 0.6, 0.05, 0.0, {}),
+         ("beckmann", (0.6, 0.1), 0.4, 1.0, {"fresnel_kind": "schlick", "f0": 0.5})]
 Z = float(sps.norm.isf(sidak(1e-3, len(CASES)) / 2))
 
 
@@ -23,32 +27,34 @@ def _wo(mu, phi):
 
 @pytest.mark.parametrize("k", range(len(CASES)))
 def test_single_scattering_is_the_microfacet_brdf(k):
-    """The weight of the walks that leave after one hit has the mean E of ggx with
-    height-correlated masking and the same Fresnel (the paper's section 4.3), within the Sidak
-    bound over the cases (family-wise 1e-3) of its standard error."""
-    alpha, mu, phi, fr = CASES[k]
+    """The weight of the walks that leave after one hit has the mean E of the microfacet model
+    (GGX or Beckmann) with height-correlated masking and the same Fresnel (the paper's section
+    4.3), within the Sidak bound over the cases (family-wise 1e-3) of its standard error."""
+    dist, alpha, mu, phi, fr = CASES[k]
     ax, ay = (alpha, alpha) if np.isscalar(alpha) else alpha
-    wi, wt, order, lost = H.walk(_wo(mu, phi), N, alpha_x=ax, alpha_y=ay, seed=100 + k, **fr)
+    wi, wt, order, lost = H.walk(_wo(mu, phi), N, dist=dist, alpha_x=ax, alpha_y=ay,
+                                 seed=100 + k, **fr)
     x = wt * (order == 1)
     e1, s1 = x.mean(), x.std() / np.sqrt(N)
     kind = fr.get("fresnel_kind", "one")
     params = {a: b for a, b in fr.items() if a != "fresnel_kind"}
     rough = {"alpha": alpha} if np.isscalar(alpha) else {"alpha_x": ax, "alpha_y": ay}
-    ref = reference("ggx", fresnel=kind, **rough, **params)
+    ref = reference(dist, fresnel=kind, **rough, **params)
     e_ref, err = ref.albedo(mu, phi, tol=1e-9)
     e_ref = float(np.ravel(e_ref)[0])
     assert abs(e1 - e_ref) <= Z * s1 + err, (e1, s1, e_ref, (e1 - e_ref) / s1)
     assert lost == 0 and np.all(wi[:, 2] >= 0)
 
 
+@pytest.mark.parametrize("dist", ["ggx", "beckmann"])
 @pytest.mark.parametrize("alpha", [0.05, 0.3, 1.0, 2.0])
-def test_every_walk_leaves_upward_with_its_energy(alpha):
+def test_every_walk_leaves_upward_with_its_energy(alpha, dist):
     """F = 1: each walk that is not cut leaves above the surface with weight 1, so E = 1 - the
     cut fraction; at max_order 64 none was cut in 2^18 walks per case up to alpha = 2 (mu 0.05,
     the longest walks); at max_order 2 the cut walks are exactly those of order 3 and more."""
     wo = _wo(0.05, 0.0)
-    wi, wt, order, lost = H.walk(wo, N, alpha_x=alpha, seed=7)
+    wi, wt, order, lost = H.walk(wo, N, dist=dist, alpha_x=alpha, seed=7)
     assert lost == 0 and np.all(wt == 1) and np.all(wi[:, 2] >= 0) and order.min() >= 1
-    wi2, wt2, order2, lost2 = H.walk(wo, N, alpha_x=alpha, seed=7, max_order=2)
+    wi2, wt2, order2, lost2 = H.walk(wo, N, dist=dist, alpha_x=alpha, seed=7, max_order=2)
     assert lost2 == np.count_nonzero(order >= 3)        # the same numbers up to the cut
     assert np.all(wt2[np.isnan(wi2[:, 0])] == 0)

@@ -10,9 +10,10 @@ down along -wo (the paper's wi is our wo: the direction the light leaves toward)
 - the next height: along a direction w of Lambda(w) (Lambda(-w) = -1 - Lambda(w) for w going
   down), the ray from height h0 leaves without hitting with probability G1(w, h0) = C1(h0)^Lambda
   (w going up; 0 going down); else it hits at h = C1^-1(C1(h0) / (1 - U)^(1 / Lambda)) (eq 12-14);
-- at a hit, a normal m from the visible normals of the reversed ray -w (Heitz 2018's VNDF by
-  spherical caps, Dupuy & Benyoub 2023, valid for -w on either side), the reflection about m,
-  and the throughput times F(-w . m).
+- at a hit, a normal m from the visible normals of the reversed ray -w, valid for -w on either
+  side (GGX: spherical caps, Dupuy & Benyoub 2023; Beckmann: the visible-slope CDF of Heitz &
+  d'Eon 2014 inverted by bisection), the reflection about m, and the throughput times
+  F(-w . m).
 
 Where it leaves, the walk's direction is wi and its throughput the weight: the mean weight is the
 directional albedo of the multiple-scattering BRDF, the weights of the walks that left after k
@@ -23,7 +24,7 @@ G2 = 1 / (1 + Lambda(wo) + Lambda(wi)), the paper's section 4.3). A walk still o
 from __future__ import annotations
 
 import numpy as np
-from scipy.special import erf
+from scipy.special import erf, erfc, erfinv
 
 from .microfacet import fresnel
 
@@ -60,12 +61,9 @@ def _next_height(dist, w, h0, u, ax, ay):
     return np.where(leave, np.inf, h)
 
 
-def _vndf(dist, wv, u1, u2, ax, ay):
-    """A normal m of the visible normals of wv (either side): GGX by spherical caps (Dupuy &
-    Benyoub 2023); Beckmann by the visible-slope inversion of Heitz & d'Eon 2014 is not given
-    here (GGX only)."""
-    if dist != "ggx":
-        raise NotImplementedError("the reference walk samples GGX's visible normals only")
+def _vndf(wv, u1, u2, ax, ay):
+    """A normal m of GGX's visible normals of wv (either side), by spherical caps (Dupuy &
+    Benyoub 2023)."""
     v = np.stack([ax * wv[..., 0], ay * wv[..., 1], wv[..., 2]], -1)
     v /= np.linalg.norm(v, axis=-1, keepdims=True)
     phi = 2 * np.pi * u1
@@ -74,6 +72,35 @@ def _vndf(dist, wv, u1, u2, ax, ay):
     c = np.stack([sz * np.cos(phi), sz * np.sin(phi), cz], -1)
     h = v + c
     m = np.stack([ax * h[..., 0], ay * h[..., 1], np.maximum(h[..., 2], 0)], -1)
+    return m / np.linalg.norm(m, axis=-1, keepdims=True)
+
+
+def _vndf_beckmann(wv, u1, u2, ax, ay):
+    """A normal m of Beckmann's visible normals of wv, either side. In the stretched frame
+    (alpha 1) with wv at polar angle theta, the visible slopes have the density
+    max(0, cot theta - x) P2(x) P2(y), P2(x) = exp(-x^2) / sqrt(pi) (Heitz & d'Eon 2014, whose
+    form holds for theta up to pi: cot theta < 0 keeps the slopes facing a wv below the
+    horizon); x inverts the CDF G(x) / G(c), G(x) = c erfc(-x) / 2 + exp(-x^2) / (2 sqrt(pi)),
+    c = cot theta, by bisection; y = erfinv(2 u2 - 1). cot theta is held above -25 (wv within
+    2.3 degrees of straight down, where G(c) underflows; such rays almost never hit)."""
+    s = np.stack([ax * wv[..., 0], ay * wv[..., 1], wv[..., 2]], -1)
+    s /= np.linalg.norm(s, axis=-1, keepdims=True)
+    sin_t = np.hypot(s[..., 0], s[..., 1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        c = np.clip(np.where(sin_t > 0, s[..., 2] / sin_t, np.inf), -25.0, 1e8)
+    G = lambda x: c * erfc(-x) / 2 + np.exp(-x * x) / (2 * np.sqrt(np.pi))   # noqa: E731
+    target = u1 * G(c)
+    lo, hi = np.minimum(c, 0.0) - 30.0, np.minimum(c, 30.0)
+    for _ in range(90):
+        mid = (lo + hi) / 2
+        below = G(mid) < target
+        lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+    x = (lo + hi) / 2
+    y = erfinv(2 * u2 - 1)
+    phi = np.arctan2(s[..., 1], s[..., 0])
+    cp, sp = np.cos(phi), np.sin(phi)
+    tx, ty = ax * (cp * x - sp * y), ay * (sp * x + cp * y)
+    m = np.stack([-tx, -ty, np.ones_like(tx)], -1)
     return m / np.linalg.norm(m, axis=-1, keepdims=True)
 
 
@@ -106,7 +133,8 @@ def walk(wo, n, *, dist="ggx", alpha_x=0.5, alpha_y=None, max_order=64, seed=0,
         h[go] = hk
         order[go] += 1
         wv = -w[go]
-        m = _vndf(dist, wv, uk[:, 1], uk[:, 2], ax, ay)
+        m = (_vndf(wv, uk[:, 1], uk[:, 2], ax, ay) if dist == "ggx" else
+             _vndf_beckmann(wv, uk[:, 1], uk[:, 2], ax, ay))
         c = np.einsum("ij,ij->i", wv, m)
         weight[go] *= fresnel(fresnel_kind, c, **fresnel_params)
         w[go] = -wv + 2 * c[:, None] * m
