@@ -141,3 +141,71 @@ def walk(wo, n, *, dist="ggx", alpha_x=0.5, alpha_y=None, max_order=64, seed=0,
     w[cut] = np.nan
     weight[cut] = 0.0
     return w, weight, order, int(np.count_nonzero(cut))
+
+
+def _refract(wi, m, eta):
+    """The refraction of wi (pointing away from the interface, on m's side) through the facet
+    m into a medium of relative index eta, as a unit vector; total reflection is excluded by
+    the caller (F = 1 there)."""
+    c = np.einsum("ij,ij->i", wi, m)
+    ct2 = 1 - (1 - c * c) / (eta * eta)
+    ct = -np.sqrt(np.maximum(ct2, 0))
+    t = m * (c / eta + ct)[:, None] - wi / eta[:, None] if np.ndim(eta) else \
+        m * (c / eta + ct)[:, None] - wi / eta
+    return t / np.linalg.norm(t, axis=-1, keepdims=True)
+
+
+def walk_dielectric(wo, n, *, dist="ggx", alpha_x=0.5, alpha_y=None, eta=1.5, max_order=64,
+                    seed=0):
+    """n random walks on a rough dielectric interface (the paper's section 5): from above, eta
+    the index below relative to above. At each hit, the normal from the visible normals of the
+    reversed ray on its own side (the microsurface seen from below is the mirror image, heights
+    negated), then reflection with probability F (the exact dielectric Fresnel of the side's
+    relative index) or refraction to the other side. Returns (wi, side, order, lost): the
+    direction each walk leaves along (z > 0 reflected, z < 0 transmitted), +1 / -1 for the side
+    it leaves on, its number of hits, the number cut at max_order (wi NaN, side 0). Every
+    weight is 1 (energy: the Fresnel picks the branch)."""
+    ay = alpha_x if alpha_y is None else alpha_y
+    ax = alpha_x
+    rng = np.random.default_rng(seed)
+    w = np.broadcast_to(-np.asarray(wo, float), (n, 3)).copy()
+    h = np.full(n, H_START)
+    outside = np.ones(n, dtype=bool)
+    order = np.zeros(n, dtype=np.int64)
+    alive = np.ones(n, dtype=bool)
+    cut = np.zeros(n, dtype=bool)
+    flip = np.array([1.0, 1.0, -1.0])
+    while alive.any():
+        idx = np.flatnonzero(alive)
+        u = rng.random((idx.size, 4))
+        out_i = outside[idx]
+        # from below: the mirror-image microsurface (z and heights negated)
+        wl = np.where(out_i[:, None], w[idx], w[idx] * flip)
+        hl = np.where(out_i, h[idx], -h[idx])
+        hn = _next_height(dist, wl, hl, u[:, 0], ax, ay)
+        gone = ~np.isfinite(hn)
+        alive[idx[gone]] = False
+        hit = idx[~gone]
+        over = order[hit] >= max_order
+        cut[hit[over]] = True
+        alive[hit[over]] = False
+        keep = ~over
+        go, uk = hit[keep], u[~gone][keep]
+        ok = out_i[~gone][keep]
+        hk = hn[~gone][keep]
+        h[go] = np.where(ok, hk, -hk)
+        order[go] += 1
+        wv = -np.where(ok[:, None], w[go], w[go] * flip)         # in the side's own frame
+        sample = _vndf if dist == "ggx" else _vndf_beckmann
+        m = sample(wv, uk[:, 1], uk[:, 2], ax, ay)
+        e = np.where(ok, eta, 1 / eta)
+        c = np.einsum("ij,ij->i", wv, m)
+        F = fresnel("dielectric", c, eta=e)
+        refl = uk[:, 3] < F
+        new = np.where(refl[:, None], -wv + 2 * c[:, None] * m, _refract(wv, m, e))
+        w[go] = np.where(ok[:, None], new, new * flip)          # back to the fixed frame
+        outside[go] = np.where(refl, ok, ~ok)
+    w[cut] = np.nan
+    side = np.where(cut, 0, np.where(outside, 1, -1))
+    return w, side, order, int(np.count_nonzero(cut))
+
