@@ -18,7 +18,8 @@ import numpy as np                   # noqa: E402
 
 import clbrdf                        # noqa: E402
 from clbrdf.studies import ladder    # noqa: E402
-from clbrdf.studies.fresnel_fits import FITS, NODES, _curve, _exact, fresnel_errors  # noqa: E402
+from clbrdf.studies.fresnel_fits import (FITS, NODES, conductor_curve, fitted_curve,  # noqa: E402
+                                         fresnel_errors)
 from clbrdf.tables.outputs import write_together   # noqa: E402
 
 ALPHAS = (0.1, 0.5)
@@ -51,12 +52,12 @@ def main():
         alb = {a: albedo_errors(m, a) for a in ALPHAS}
         rows.append((m, eta, k, errs, alb))
         th = np.degrees(np.arccos(c))
-        ex = _exact(eta, k, c)
+        ex = conductor_curve(eta, k, c)
         for ch, col in enumerate("rgb"):
             ax.plot(th, ex[:, ch], color=col, lw=1.6)
-            ax.plot(th, _curve("f82", errs["f82"]["params"], c)[:, ch], color=col, ls="--",
+            ax.plot(th, fitted_curve("f82", errs["f82"]["params"], c)[:, ch], color=col, ls="--",
                     lw=1)
-            ax.plot(th, _curve("schlick", errs["schlick"]["params"], c)[:, ch], color=col,
+            ax.plot(th, fitted_curve("schlick", errs["schlick"]["params"], c)[:, ch], color=col,
                     ls=":", lw=1)
         ax.set_title(m, fontsize=9)
         ax.set_xlabel("theta (degrees)", fontsize=8)

@@ -84,10 +84,16 @@ NG = 1 << 15      # samples per cell of the glass tables here (Cycles: 2^23, 2^2
 def cycles_glass():
     """Cycles' four glass tables of the layout (ggx_dielectric), without the interpolation
     check (test_cycles_matches_its_shipped_table covers it for the layout's machinery)."""
+    return _cycles_tables(lambda name: "glass" in name)
+
+
+def _cycles_tables(keep):
+    """The tables of the cycles layout whose names ``keep`` accepts, at NG samples a cell and
+    without the interpolation check."""
     lay = get_layout("cycles")
     out = {}
     for tab in lay["tables"]:
-        if "glass" in tab["name"]:
+        if keep(tab["name"]):
             model, fixed = table_config(lay, tab)
             out[tab["name"]] = compute_table(model, tab["name"], tab["quantity"], tab["axes"],
                                              fixed=fixed, value_range=tab.get("range"),
@@ -236,15 +242,7 @@ GS = ("table_ggx_gen_schlick_ior_s", "table_ggx_gen_schlick_s")
 
 @pytest.fixture(scope="module")
 def cycles_gen_schlick():
-    lay = get_layout("cycles")
-    out = {}
-    for tab in lay["tables"]:
-        if tab["name"] in GS:
-            model, fixed = table_config(lay, tab)
-            out[tab["name"]] = compute_table(model, tab["name"], tab["quantity"], tab["axes"],
-                                             fixed=fixed, value_range=tab.get("range"),
-                                             samples=NG, check_interpolation=False)
-    return out
+    return _cycles_tables(lambda name: name in GS)
 
 
 def test_cycles_gen_schlick_tables_match_the_shipped_ones(cycles_gen_schlick):

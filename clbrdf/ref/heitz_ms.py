@@ -104,6 +104,19 @@ def _vndf_beckmann(wv, u1, u2, ax, ay):
     return m / np.linalg.norm(m, axis=-1, keepdims=True)
 
 
+def _normal(dist, wv, u1, u2, ax, ay):
+    """A visible normal of wv (either side) for the distribution."""
+    return (_vndf if dist == "ggx" else _vndf_beckmann)(wv, u1, u2, ax, ay)
+
+
+def _advance(dist, w, h0, u0, order, max_order, ax, ay):
+    """The next height of each walk and which ones stop: (h, left, over), left where the ray
+    leaves the surface, over where it hits again beyond max_order (cut)."""
+    h = _next_height(dist, w, h0, u0, ax, ay)
+    left = ~np.isfinite(h)
+    return h, left, ~left & (order >= max_order)
+
+
 def walk(wo, n, *, dist="ggx", alpha_x=0.5, alpha_y=None, max_order=64, seed=0,
          fresnel_kind="one", **fresnel_params):
     """n random walks from wo (a unit vector above the surface): (wi, weight, order, lost), wi
@@ -121,20 +134,15 @@ def walk(wo, n, *, dist="ggx", alpha_x=0.5, alpha_y=None, max_order=64, seed=0,
     while alive.any():
         idx = np.flatnonzero(alive)
         u = rng.random((idx.size, 3))
-        hn = _next_height(dist, w[idx], h[idx], u[:, 0], ax, ay)
-        out = ~np.isfinite(hn)
-        alive[idx[out]] = False                                 # left: w is wi
-        hit = idx[~out]
-        over = order[hit] >= max_order                          # a hit beyond the bound
-        cut[hit[over]] = True
-        alive[hit[over]] = False
-        keep = ~over
-        go, hk, uk = hit[keep], hn[~out][keep], u[~out][keep]
-        h[go] = hk
+        hn, left, over = _advance(dist, w[idx], h[idx], u[:, 0], order[idx], max_order, ax, ay)
+        alive[idx[left | over]] = False                         # left: w is wi
+        cut[idx[over]] = True
+        on = ~(left | over)
+        go, uk = idx[on], u[on]
+        h[go] = hn[on]
         order[go] += 1
         wv = -w[go]
-        m = (_vndf(wv, uk[:, 1], uk[:, 2], ax, ay) if dist == "ggx" else
-             _vndf_beckmann(wv, uk[:, 1], uk[:, 2], ax, ay))
+        m = _normal(dist, wv, uk[:, 1], uk[:, 2], ax, ay)
         c = np.einsum("ij,ij->i", wv, m)
         weight[go] *= fresnel(fresnel_kind, c, **fresnel_params)
         w[go] = -wv + 2 * c[:, None] * m
@@ -147,11 +155,10 @@ def _refract(wi, m, eta):
     """The refraction of wi (pointing away from the interface, on m's side) through the facet
     m into a medium of relative index eta, as a unit vector; total reflection is excluded by
     the caller (F = 1 there)."""
+    eta = np.asarray(eta, float)
     c = np.einsum("ij,ij->i", wi, m)
-    ct2 = 1 - (1 - c * c) / (eta * eta)
-    ct = -np.sqrt(np.maximum(ct2, 0))
-    t = m * (c / eta + ct)[:, None] - wi / eta[:, None] if np.ndim(eta) else \
-        m * (c / eta + ct)[:, None] - wi / eta
+    ct = -np.sqrt(np.maximum(1 - (1 - c * c) / (eta * eta), 0))
+    t = m * (c / eta + ct)[:, None] - wi / eta[..., None]
     return t / np.linalg.norm(t, axis=-1, keepdims=True)
 
 
@@ -182,22 +189,15 @@ def walk_dielectric(wo, n, *, dist="ggx", alpha_x=0.5, alpha_y=None, eta=1.5, ma
         # from below: the mirror-image microsurface (z and heights negated)
         wl = np.where(out_i[:, None], w[idx], w[idx] * flip)
         hl = np.where(out_i, h[idx], -h[idx])
-        hn = _next_height(dist, wl, hl, u[:, 0], ax, ay)
-        gone = ~np.isfinite(hn)
-        alive[idx[gone]] = False
-        hit = idx[~gone]
-        over = order[hit] >= max_order
-        cut[hit[over]] = True
-        alive[hit[over]] = False
-        keep = ~over
-        go, uk = hit[keep], u[~gone][keep]
-        ok = out_i[~gone][keep]
-        hk = hn[~gone][keep]
-        h[go] = np.where(ok, hk, -hk)
+        hn, left, over = _advance(dist, wl, hl, u[:, 0], order[idx], max_order, ax, ay)
+        alive[idx[left | over]] = False
+        cut[idx[over]] = True
+        on = ~(left | over)
+        go, uk, ok = idx[on], u[on], out_i[on]
+        h[go] = np.where(ok, hn[on], -hn[on])
         order[go] += 1
         wv = -np.where(ok[:, None], w[go], w[go] * flip)         # in the side's own frame
-        sample = _vndf if dist == "ggx" else _vndf_beckmann
-        m = sample(wv, uk[:, 1], uk[:, 2], ax, ay)
+        m = _normal(dist, wv, uk[:, 1], uk[:, 2], ax, ay)
         e = np.where(ok, eta, 1 / eta)
         c = np.einsum("ij,ij->i", wv, m)
         F = fresnel("dielectric", c, eta=e)

@@ -28,12 +28,13 @@ _X, _W = np.polynomial.legendre.leggauss(2000)
 NODES, WEIGHTS = (_X + 1) / 2, _W / 2            # Gauss-Legendre on [0, 1]
 
 
-def _exact(eta, k, c):
+def conductor_curve(eta, k, c):
+    """The exact F of the conductor n + i k (per channel, columns) at the cosines c."""
     return fresnel("conductor", c[:, None], eta=np.asarray(eta, float)[None, :],
                    k=np.asarray(k, float)[None, :])
 
 
-def _curve(kind, p, c):
+def fitted_curve(kind, p, c):
     """F of a fitted term (per channel, columns) at the cosines c."""
     f0 = np.asarray(p["f0"], float)[None, :]
     if kind == "schlick":
@@ -49,18 +50,18 @@ def fit_conductor(eta, k, kind: str) -> dict:
     if kind not in FITS:
         raise ValueError(f"kind={kind!r}: choose one of {', '.join(FITS)}")
     eta, k = np.atleast_1d(np.asarray(eta, float)), np.atleast_1d(np.asarray(k, float))
-    f0 = _exact(eta, k, np.array([1.0]))[0]
+    f0 = conductor_curve(eta, k, np.array([1.0]))[0]
     if kind == "schlick":
         return {"f0": f0.tolist()}
     if kind == "f82":
         schlick82 = f0 + (1 - f0) * (1 - C82) ** 5
-        tint = np.clip(_exact(eta, k, np.array([C82]))[0] / schlick82, 0, 1)
+        tint = np.clip(conductor_curve(eta, k, np.array([C82]))[0] / schlick82, 0, 1)
         return {"f0": f0.tolist(), "f82": tint.tolist()}
-    exact = _exact(eta, k, NODES)
+    exact = conductor_curve(eta, k, NODES)
     ones = np.ones_like(f0)
 
     def loss(n):
-        d = _curve("gen_schlick", {"f0": f0, "f90": ones, "exponent": n}, NODES) - exact
+        d = fitted_curve("gen_schlick", {"f0": f0, "f90": ones, "exponent": n}, NODES) - exact
         return float(np.sum(WEIGHTS[:, None] * 2 * NODES[:, None] * d * d))
     rng = get_spec("ggx").param("exponent")
     n = minimize_scalar(loss, bounds=(0.5, 500.0), method="bounded",
@@ -73,7 +74,7 @@ def fresnel_errors(eta, k, kind: str, params: dict | None = None) -> dict:
     """max |F_fit - F| over c (and where), and F_avg of both, per channel."""
     eta, k = np.atleast_1d(np.asarray(eta, float)), np.atleast_1d(np.asarray(k, float))
     p = fit_conductor(eta, k, kind) if params is None else params
-    exact, fit = _exact(eta, k, NODES), _curve(kind, p, NODES)
+    exact, fit = conductor_curve(eta, k, NODES), fitted_curve(kind, p, NODES)
     d = np.abs(fit - exact)
     i = np.argmax(d, axis=0)
     favg = lambda f: np.sum(WEIGHTS[:, None] * 2 * NODES[:, None] * f, axis=0)   # noqa: E731
