@@ -21,7 +21,11 @@
  * f(wo, wi) / n_o^2 = f(wi, wo) / n_i^2, importance f(wo, wi) / n_i^2 = f(wi, wo) / n_o^2 (n_o, n_i
  * the indices of the sides of wo and wi).
  * G: MF_MASKING correlated 1 / (1 + Lambda(wo) + Lambda(wi)) for both branches, as Cycles and
- * pbrt-v4; separable G1(wo) G1(wi), as Walter 2007 and Mitsuba 3 (microfacet_smith.h).
+ * pbrt-v4; separable G1(wo) G1(wi), as Walter 2007 and Mitsuba 3 (microfacet_smith.h); beta:
+ * height-correlated exactly, 1 / (1 + Lambda(wo) + Lambda(wi)) for reflection and the Beta
+ * function B(1 + Lambda(wo), 1 + Lambda(wi)) for refraction (Heitz 2014, uniform heights: a
+ * refracted ray goes down, where the surface masks it less the deeper it starts), the single
+ * scattering of Heitz et al. 2016's random walk (clbrdf/ref/heitz_ms.py).
  * eta = 1 exactly is no interface: no reflection, and transmission is the delta wi = -wo with
  * weight 1 (eval and pdf 0, the sampler's pdf infinite), as Cycles treats |eta - 1| < 1e-4; or,
  * with DI_ETA1_LIMIT, the limit eta -> 1 of the microfacet model, the same delta of weight
@@ -30,7 +34,7 @@
  * Compile-time configuration:
  *   MF_DIST       ggx | beckmann (microfacet_distributions.h)
  *   MF_ANISO      0: alpha; 1: alpha_x, alpha_y
- *   MF_MASKING    MASKING_CORRELATED | MASKING_SEPARABLE
+ *   MF_MASKING    MASKING_CORRELATED | MASKING_SEPARABLE | MASKING_BETA
  *   MF_SAMPLER    SAMPLER_VNDF | SAMPLER_NDF
  *   DI_LOBES      DI_BOTH | DI_REFLECTION | DI_TRANSMISSION: the terms f has (E_R + E_T, E_R, E_T)
  *   DI_TRANSPORT  DI_IMPORTANCE | DI_RADIANCE
@@ -48,6 +52,7 @@
 #include "fresnel.h"
 #include "microfacet_distributions.h"
 #include "microfacet_smith.h"
+#include "special.h"
 
 #define DI_BOTH 3
 #define DI_REFLECTION 1
@@ -114,6 +119,29 @@ FN realN di_transport(realN eta)
 #endif
 }
 
+/* G of the branch (reflection where refl) and G / G1(wo). */
+FN realN di_G(Microfacet m, vec3 wo, vec3 wi, vec3 h, maskN refl)
+{
+#if MF_MASKING == MASKING_BETA
+    realN a = 1 + MF(Lambda)(m, wo), b = 1 + MF(Lambda)(m, wi);
+    return sel(beta_scaled(a, b, (realN)1), mf_G(m, wo, wi, h), refl);
+#else
+    (void)refl;
+    return mf_G(m, wo, wi, h);
+#endif
+}
+
+FN realN di_G_over_G1(Microfacet m, vec3 wo, vec3 wi, vec3 h, maskN refl)
+{
+#if MF_MASKING == MASKING_BETA
+    realN a = 1 + MF(Lambda)(m, wo);
+    return sel(beta_scaled(a, 1 + MF(Lambda)(m, wi), a), mf_G1c(m, wi, a), refl);
+#else
+    (void)refl;
+    return mf_G_over_G1(m, wo, wi, h);
+#endif
+}
+
 /* Density of the normals the sampler draws, per unit solid angle of h, at wo.h = oh > 0. */
 FN realN di_normal_pdf(Microfacet m, vec3 wo, vec3 h, realN oh)
 {
@@ -146,7 +174,7 @@ ALWAYS_INLINE realN di_eval_pdf(const dielectric_params *p, vec3 wo, vec3 wi, re
     realN F = fresnel_dielectric(eta, oh);
     realN T = fresnel_dielectric_T(sel(eta, 1 / eta, flip), sel(oh, -ih, flip));
     realN D = MF(D)(m, h);
-    realN G = mf_G(m, wo, wi, h);
+    realN G = di_G(m, wo, wi, h, refl);
     realN ci = fabs(wi.z), co = wo.z;
     realN jac_t = fabs(ih) * eta * eta / (L * L);             /* |wi.h| / (wi.h + wo.h/eta)^2 */
     realN fr = (DI_KEEPS_R ? F : (realN)0) * D * G / (4 * ci * co);
@@ -211,9 +239,9 @@ ALWAYS_INLINE BSample di_branch(const DiNormal *n, vec3 wo, realN eta, maskN ref
     BSample b;
     b.wi = select3(sub3(scale3(h, k), scale3(wo, 1 / eta)), reflect3(wo, h), refl);
 #if MF_SAMPLER == SAMPLER_VNDF
-    realN g = mf_G_over_G1(n->m, wo, b.wi, h);
+    realN g = di_G_over_G1(n->m, wo, b.wi, h, refl);
 #else
-    realN g = mf_G(n->m, wo, b.wi, h) * c / (wo.z * h.z);   /* (.) G wo.h / (cos_o h.z) */
+    realN g = di_G(n->m, wo, b.wi, h, refl) * c / (wo.z * h.z);   /* (.) G wo.h / (cos_o h.z) */
 #endif
 #if DI_LOBES == DI_BOTH
     realN share = (realN)1;

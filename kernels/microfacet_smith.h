@@ -16,6 +16,7 @@
 #define MASKING_SEPARABLE 2
 #define MASKING_CORRELATED 3
 #define MASKING_UNSHADOWED 4
+#define MASKING_BETA 5          /* correlated; the dielectric's refraction: B(1 + Lo, 1 + Lt) */
 #define SAMPLER_NDF 0
 #define SAMPLER_VNDF 1
 
@@ -43,7 +44,7 @@ FN realN mf_G1(Microfacet m, vec3 w) { return mf_G1c(m, w, (realN)1); }
 FN realN mf_G(Microfacet m, vec3 wo, vec3 wi, vec3 h)
 {
     (void)h; (void)m;   /* the interface's; not every configuration reads it */
-#if MF_MASKING == MASKING_CORRELATED
+#if MF_MASKING == MASKING_CORRELATED || MF_MASKING == MASKING_BETA
     return 1 / (1 + MF(Lambda)(m, wi) + MF(Lambda)(m, wo));
 #elif MF_MASKING == MASKING_SEPARABLE
     return mf_G1(m, wi) * mf_G1(m, wo);
@@ -60,7 +61,7 @@ FN realN mf_G(Microfacet m, vec3 wo, vec3 wi, vec3 h)
 FN realN mf_G_over_G1(Microfacet m, vec3 wo, vec3 wi, vec3 h)
 {
     (void)h; (void)wo;   /* the interface's; not every configuration reads it */
-#if MF_MASKING == MASKING_CORRELATED
+#if MF_MASKING == MASKING_CORRELATED || MF_MASKING == MASKING_BETA
     return mf_G1c(m, wi, 1 + MF(Lambda)(m, wo));
 #elif MF_MASKING == MASKING_SEPARABLE
     return mf_G1(m, wi);

@@ -25,8 +25,10 @@ PARAMS = (
 )
 
 OPTIONS = (
-    Option("masking", "masking-shadowing term G of both branches", ("correlated", "separable"),
-           "correlated"),
+    Option("masking", "masking-shadowing term G of both branches: height-correlated 1 / (1 + "
+           "Lo + Li) (as Cycles, pbrt-v4), separable G1 G1 (Walter 2007, Mitsuba 3), or beta: "
+           "height-correlated exactly, B(1 + Lo, 1 + Lt) for refraction (the random walk's)",
+           ("correlated", "separable", "beta"), "correlated"),
     Option("sampler", "the normals the sampler draws: visible normals or normals", ("vndf", "ndf"),
            "vndf"),
     Option("lobes", "the terms f has: reflection and transmission, or one of them",
