@@ -8,7 +8,8 @@
  *   CHANNELS    1, or 3 (RGB): a model's value and weight have CHANNELS components
  *   KERNELS     KERNELS_BATCH (eval_batch, pdf_batch, sample_batch), KERNELS_ALBEDO
  *               (albedo_blocks), KERNELS_QUADRATURE (quadrature_panels), KERNELS_LTC
- *               (ltc_moments, ltc_loss: the fit of kernels/ltc.h, clbrdf/tables/ltc.py) or KERNELS_RANDOM
+ *               (ltc_moments, ltc_loss: the fit of kernels/ltc.h, clbrdf/tables/ltc.py), KERNELS_WALK
+ *               (walk_albedo, walk_sample: the random walk of kernels/heitz_ms.h) or KERNELS_RANDOM
  *               (random_batch: no model, no Params)
  *   MODEL       the model's function prefix (lambert, microfacet, ...)
  *   ESTIMATOR   ESTIMATOR_UNIFORM | ESTIMATOR_COSINE | ESTIMATOR_BRDF | ESTIMATOR_MIS (albedo)
@@ -27,6 +28,7 @@
 #define KERNELS_RANDOM 2
 #define KERNELS_QUADRATURE 3
 #define KERNELS_LTC 4
+#define KERNELS_WALK 5
 
 #define ESTIMATOR_UNIFORM 0
 #define ESTIMATOR_COSINE 1
@@ -658,5 +660,104 @@ __kernel void ltc_loss(const global real_t *P, Tables TABLES, const global real_
 }
 
 #endif /* KERNELS_LTC */
+
+
+
+#if KERNELS == KERNELS_WALK
+
+/* ---- the random walk on the microsurface (kernels/heitz_ms.h) ---- */
+
+/* The four numbers of event `event` of walk `walk`: counter (walk, point, stream, event). */
+FN rand4 ms_numbers(uintN walk, uint point, uint stream, uint event, uint seed_lo, uint seed_hi)
+{
+    uint4N c = {walk, (uintN)point, (uintN)stream, (uintN)event};
+    c = philox4x32_10(c, seed_lo, seed_hi);
+    rand4 r = {bits_to_unit(c.c0), bits_to_unit(c.c1), bits_to_unit(c.c2), bits_to_unit(c.c3)};
+    return r;
+}
+
+#define WALK_SUMS (4 * MS_ORDERS * CHANNELS)
+#define WALK_OUT (WALK_SUMS + 2)
+
+/* Work-item g: point point0 + g / launch_blocks (its parameters and wo), walks [b L, b L + L)
+ * of it, b = block0 + g % launch_blocks and L = block_len (a multiple of W); walks at or past
+ * `walks` are left out. Walk j of the point is keyed (j, point, 0, event). Per class k (the
+ * order, min(hits, 3) - 1, plus MS_ORDERS where the walk leaves below the surface) and channel
+ * c, the sums of the weight and of its square at out[WALK_OUT g + 2 (k CHANNELS + c) + 0, 1];
+ * then the number of walks cut at max_order and the number of hits of all walks. */
+__kernel void walk_albedo(const global real_t *P, Tables TABLES, const global real_t *WO,
+                          const ulong npoints, const ulong point0, const uint block0,
+                          const uint launch_blocks, const uint walks, const uint seed_lo,
+                          const uint seed_hi, const uint max_order, const uint block_len,
+                          global real_t *out)
+{
+    ulong g = get_global_id(0), lp = g / launch_blocks;
+    if (lp >= npoints) return;
+    uint block = block0 + (uint)(g % launch_blocks), point = (uint)(point0 + lp);
+    Params p = splat_params(P, TABLES, npoints, lp);
+    vec3 wo = v3((realN)WO[lp], (realN)WO[npoints + lp], (realN)WO[2 * npoints + lp]);
+    Microfacet m = ms_distribution(&p);
+    realN acc[WALK_SUMS];
+    for (int j = 0; j < WALK_SUMS; ++j)
+        acc[j] = 0;
+    realN cut = 0, hits = 0;
+    for (uint k = 0; k < block_len; k += W) {
+        uintN id = (uintN)(block * block_len + k) + LANE_IDS;
+        maskN valid = TO_MASK(id < (uintN)walks);
+        MsWalk s = ms_start(wo);
+        s.alive = valid;
+        for (uint e = 0; MS_ANY(s.alive); ++e) {
+            maskN left = ms_step(&p, m, &s, ms_numbers(id, point, 0, e, seed_lo, seed_hi),
+                                 max_order);
+            if (!MS_ANY(left))
+                continue;
+            realN cls = fmin(s.order, (realN)MS_ORDERS) - 1
+                        + sel((realN)0, (realN)MS_ORDERS, s.w.z < 0);
+            for (int j = 0; j < 2 * MS_ORDERS; ++j) {
+                maskN here = left & (cls == (realN)j);
+                for (int ch = 0; ch < CHANNELS; ++ch) {
+                    realN v = sel((realN)0, s.weight.c[ch], here);
+                    acc[2 * (j * CHANNELS + ch)] += v;
+                    acc[2 * (j * CHANNELS + ch) + 1] += v * v;
+                }
+            }
+        }
+        cut += sel((realN)0, (realN)1, s.cut);
+        hits += sel((realN)0, s.order, valid);
+    }
+    for (int j = 0; j < WALK_SUMS; ++j)
+        out[WALK_OUT * g + j] = HSUM(acc[j]);
+    out[WALK_OUT * g + WALK_SUMS] = HSUM(cut);
+    out[WALK_OUT * g + WALK_SUMS + 1] = HSUM(hits);
+}
+
+/* One walk per query i (batch layout, n a multiple of W): walk first + i, keyed (first + i, 0,
+ * stream, event). WI the direction it leaves along (NaN where cut), weight its throughput per
+ * channel (0 where cut), ORDER its number of hits. */
+__kernel void walk_sample(const global real_t *P, Tables TABLES, const global real_t *WO,
+                          const ulong n, const uint first, const uint stream, const uint seed_lo,
+                          const uint seed_hi, const uint max_order, global real_t *WI,
+                          global real_t *weight, global real_t *ORDER)
+{
+    ulong i = get_global_id(0) * W;
+    if (i >= n) return;
+    Params p = load_params(P, TABLES, n, i);
+    Microfacet m = ms_distribution(&p);
+    uintN id = (uintN)(first + (uint)i) + LANE_IDS;
+    MsWalk s = ms_start(load_dir(WO, n, i));
+    vec3 wi = v3((realN)NAN, (realN)NAN, (realN)NAN);
+    realN order = 0;
+    for (uint e = 0; MS_ANY(s.alive); ++e) {
+        maskN left = ms_step(&p, m, &s, ms_numbers(id, 0, stream, e, seed_lo, seed_hi),
+                             max_order);
+        wi = select3(wi, s.w, left);
+        order = sel(order, s.order, left);
+    }
+    store_dir(wi, WI, n, i);
+    store_spec(spec_sel(s.weight, spec_splat((realN)0), s.cut), weight, n, i);
+    VSTORE(order, ORDER + i);
+}
+
+#endif /* KERNELS_WALK */
 
 #endif /* a model's kernels */

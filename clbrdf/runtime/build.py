@@ -59,7 +59,7 @@ def expand(name: str, seen: set | None = None) -> str:
     return f'// ---- {name} ----\n' + _INCLUDE.sub(sub, read_kernel(name))
 
 
-PARTS = ("batch", "random", "albedo", "quadrature", "ltc")
+PARTS = ("batch", "random", "albedo", "quadrature", "ltc", "walk")
 _TABLE = re.compile(r"\bTABLE_([a-z][a-z0-9_]*)\b")
 
 
@@ -105,7 +105,8 @@ def program_source(cfg: Config, precision: str, width: int, *, part: str = "batc
     """The self-contained source of one program. ``part`` picks its kernels, so that a program
     holds only the code its caller runs: ``batch`` (eval_batch, pdf_batch, sample_batch),
     ``albedo`` (albedo_blocks for one estimator and generator), ``quadrature`` (quadrature_panels),
-    ``ltc`` (ltc_moments and ltc_loss for one generator: the LTC fit) or ``random`` (random_batch for one
+    ``ltc`` (ltc_moments and ltc_loss for one generator: the LTC fit), ``walk`` (walk_albedo
+    and walk_sample: Heitz et al. 2016's random walk, kernels/heitz_ms.h) or ``random`` (random_batch for one
     generator; it contains no model, so one program serves every model). Returns the source and
     the names of the tables it reads (``with_tables``); assembled once per configuration."""
     if part not in PARTS:
@@ -139,6 +140,8 @@ def program_source(cfg: Config, precision: str, width: int, *, part: str = "batc
     body.append("typedef struct {\n" + "\n".join(fields) + "\n} Params;\n"
                 f"#define {cfg.prefix}_params Params\n")     # the model header's name for it
     body += model
+    if part == "walk":          # the walk extends the model's distribution and Fresnel
+        body.append(expand("heitz_ms.h", seen))
     body.append(expand("integrators.cl", seen))
     return with_tables("\n".join(lines) + "\n" + "\n".join(body))
 
