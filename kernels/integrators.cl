@@ -668,9 +668,9 @@ __kernel void ltc_loss(const global real_t *P, Tables TABLES, const global real_
 /* ---- the random walk on the microsurface (kernels/heitz_ms.h) ---- */
 
 /* The four numbers of event `event` of walk `walk`: counter (walk, point, stream, event). */
-FN rand4 ms_numbers(uintN walk, uint point, uint stream, uint event, uint seed_lo, uint seed_hi)
+FN rand4 ms_numbers(uintN walk, uint point, uint stream, uintN event, uint seed_lo, uint seed_hi)
 {
-    uint4N c = {walk, (uintN)point, (uintN)stream, (uintN)event};
+    uint4N c = {walk, (uintN)point, (uintN)stream, event};
     c = philox4x32_10(c, seed_lo, seed_hi);
     rand4 r = {bits_to_unit(c.c0), bits_to_unit(c.c1), bits_to_unit(c.c2), bits_to_unit(c.c3)};
     return r;
@@ -678,13 +678,20 @@ FN rand4 ms_numbers(uintN walk, uint point, uint stream, uint event, uint seed_l
 
 #define WALK_SUMS (4 * MS_ORDERS * CHANNELS)
 #define WALK_OUT (WALK_SUMS + 2)
+#if W == 1
+#define MS_UMASK(m) (m)
+#else
+#define MS_UMASK(m) CAT(convert_int, W)(m)     /* a mask for select() on uint lanes */
+#endif
 
 /* Work-item g: point point0 + g / launch_blocks (its parameters and wo), walks [b L, b L + L)
  * of it, b = block0 + g % launch_blocks and L = block_len (a multiple of W); walks at or past
- * `walks` are left out. Walk j of the point is keyed (j, point, 0, event). Per class k (the
- * order, min(hits, 3) - 1, plus MS_ORDERS where the walk leaves below the surface) and channel
- * c, the sums of the weight and of its square at out[WALK_OUT g + 2 (k CHANNELS + c) + 0, 1];
- * then the number of walks cut at max_order and the number of hits of all walks. */
+ * `walks` are left out. Walk j of the point is keyed (j, point, 0, event). Lane l takes walks
+ * b L + l, + W, + 2 W, ...: a lane whose walk ends starts its next one at the next event, so
+ * that no lane waits for the longest walk of its group (which cost 2x). Per class k (the order,
+ * min(hits, 3) - 1, plus MS_ORDERS where the walk leaves below the surface) and channel c, the
+ * sums of the weight and of its square at out[WALK_OUT g + 2 (k CHANNELS + c) + 0, 1]; then the
+ * number of walks cut at max_order and the number of hits of all walks. */
 __kernel void walk_albedo(const global real_t *P, Tables TABLES, const global real_t *WO,
                           const ulong npoints, const ulong point0, const uint block0,
                           const uint launch_blocks, const uint walks, const uint seed_lo,
@@ -701,29 +708,39 @@ __kernel void walk_albedo(const global real_t *P, Tables TABLES, const global re
     for (int j = 0; j < WALK_SUMS; ++j)
         acc[j] = 0;
     realN cut = 0, hits = 0;
-    for (uint k = 0; k < block_len; k += W) {
-        uintN id = (uintN)(block * block_len + k) + LANE_IDS;
-        maskN valid = TO_MASK(id < (uintN)walks);
-        MsWalk s = ms_start(wo);
-        s.alive = valid;
-        for (uint e = 0; MS_ANY(s.alive); ++e) {
-            maskN left = ms_step(&p, m, &s, ms_numbers(id, point, 0, e, seed_lo, seed_hi),
-                                 max_order);
-            if (!MS_ANY(left))
-                continue;
-            realN cls = fmin(s.order, (realN)MS_ORDERS) - 1
-                        + sel((realN)0, (realN)MS_ORDERS, s.w.z < 0);
-            for (int j = 0; j < 2 * MS_ORDERS; ++j) {
-                maskN here = left & (cls == (realN)j);
-                for (int ch = 0; ch < CHANNELS; ++ch) {
-                    realN v = sel((realN)0, s.weight.c[ch], here);
-                    acc[2 * (j * CHANNELS + ch)] += v;
-                    acc[2 * (j * CHANNELS + ch) + 1] += v * v;
-                }
+    uint end = min(block * block_len + block_len, walks);
+    uintN id = (uintN)(block * block_len) + LANE_IDS, event = (uintN)0;
+    const MsWalk fresh = ms_start(wo);
+    MsWalk s = fresh;
+    s.alive = TO_MASK(id < (uintN)end);
+    while (MS_ANY(s.alive)) {
+        maskN was = s.alive;
+        maskN left = ms_step(&p, m, &s, ms_numbers(id, point, 0, event, seed_lo, seed_hi),
+                             max_order);
+        maskN over = was & s.cut;
+        maskN fin = left | over;
+        realN cls = fmin(s.order, (realN)MS_ORDERS) - 1
+                    + sel((realN)0, (realN)MS_ORDERS, s.w.z < 0);
+        for (int j = 0; j < 2 * MS_ORDERS; ++j) {
+            maskN here = left & (cls == (realN)j);
+            for (int ch = 0; ch < CHANNELS; ++ch) {
+                realN v = sel((realN)0, s.weight.c[ch], here);
+                acc[2 * (j * CHANNELS + ch)] += v;
+                acc[2 * (j * CHANNELS + ch) + 1] += v * v;
             }
         }
-        cut += sel((realN)0, (realN)1, s.cut);
-        hits += sel((realN)0, s.order, valid);
+        cut += sel((realN)0, (realN)1, over);
+        hits += sel((realN)0, s.order, fin);
+        /* the lanes that finished start their next walk */
+        id = select(id, id + (uintN)W, MS_UMASK(fin));
+        event = select(event + (uintN)1, (uintN)0, MS_UMASK(fin));
+        s.w = select3(s.w, fresh.w, fin);
+        s.h = sel(s.h, fresh.h, fin);
+        s.weight = spec_sel(s.weight, fresh.weight, fin);
+        s.order = sel(s.order, fresh.order, fin);
+        s.inside = sel(s.inside, fresh.inside, fin);
+        s.cut = sel(s.cut, fresh.cut, fin);
+        s.alive = sel(s.alive, TO_MASK(id < (uintN)end), fin);
     }
     for (int j = 0; j < WALK_SUMS; ++j)
         out[WALK_OUT * g + j] = HSUM(acc[j]);
@@ -748,7 +765,7 @@ __kernel void walk_sample(const global real_t *P, Tables TABLES, const global re
     vec3 wi = v3((realN)NAN, (realN)NAN, (realN)NAN);
     realN order = 0;
     for (uint e = 0; MS_ANY(s.alive); ++e) {
-        maskN left = ms_step(&p, m, &s, ms_numbers(id, 0, stream, e, seed_lo, seed_hi),
+        maskN left = ms_step(&p, m, &s, ms_numbers(id, 0, stream, (uintN)e, seed_lo, seed_hi),
                              max_order);
         wi = select3(wi, s.w, left);
         order = sel(order, s.order, left);

@@ -1,4 +1,5 @@
-"""Charts of the methods: ``accuracy``, ``stability``, ``simplest``, ``ladder``."""
+"""Charts of the methods: ``accuracy``, ``stability``, ``simplest``, ``ladder``,
+``compensation``."""
 from __future__ import annotations
 
 import json
@@ -7,7 +8,7 @@ from pathlib import Path
 
 from ..models import MODELS
 from ..models.spec import ParameterError, check_int
-from ..studies import accuracy, ladder, stability
+from ..studies import accuracy, compensation, ladder, stability
 from .common import (
     chart_args,
     dev_parent,
@@ -97,6 +98,39 @@ def cmd_ladder(args) -> int:
     return 0
 
 
+def _floats(flag: str, text: str) -> tuple:
+    try:
+        return tuple(float(x) for x in text.split(",") if x.strip())
+    except ValueError:
+        raise ParameterError(f"{flag} {text!r} is not valid: give comma-separated numbers") from None
+
+
+def cmd_compensation(args) -> int:
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ParameterError(f"--out {args.out!r} is a file; give a directory")
+    check_int("walks", args.walks, 1024, 1 << 30, "[1024, 2^30]")
+    check_int("lobe-walks", args.lobe_walks, 1024, 1 << 26, "[1024, 2^26]")
+    materials = [{"preset": p} for p in args.preset or ()]
+    for text in args.f0 or ():
+        f0 = _floats("--f0", text)
+        if len(f0) not in (1, 3):
+            raise ParameterError(f"--f0 {text!r} is not valid: give one value or R,G,B")
+        materials.append({"fresnel": "schlick", "f0": list(f0 * (3 // len(f0)))})
+    glass = () if args.glass_eta.strip().lower() == "none" else _floats("--glass-eta",
+                                                                      args.glass_eta)
+    command = " ".join(["clbrdf"] + [quote(a) for a in args.argv])
+    compensation.compensation_map(
+        out, materials or None, alphas=_floats("--alphas", args.alphas),
+        mus=_floats("--mus", args.mus), lobe_mus=_floats("--lobe-mus", args.lobe_mus),
+        glass_etas=glass, walks=args.walks, lobe_walks=args.lobe_walks, seed=args.seed,
+        device=args.device, command=command,
+        progress=None if args.quiet else lambda s: print(s, flush=True))
+    print(f"wrote {out / 'README.md'}, residuals.csv, lobes.csv"
+          f"{', glass.csv' if glass else ''} and the charts")
+    return 0
+
+
 def add_parsers(sub) -> None:
     dev = dev_parent()
     models = ", ".join(MODELS)
@@ -160,3 +194,37 @@ def add_parsers(sub) -> None:
     chart_args(p, "ladder", "models (default: all with a ladder configuration)", "model",
                precision=False)
     p.set_defaults(func=cmd_ladder)
+
+    p = sub.add_parser("compensation", parents=[dev], help="chart each energy-compensation "
+                       "method against the random walk",
+                       description="For GGX conductors (metal presets, or Schlick F0 colours) and "
+                                   "rough glass: the albedo of Kulla-Conty, Turquin and "
+                                   "Fdez-Aguera compensation (and of none) against Heitz et al. "
+                                   "2016's random walk (the multiple-scattering BSDF itself), "
+                                   "per alpha, mu and channel; the relative L1 error of each "
+                                   "method's lobe against the walk's multiple-scattering lobe; "
+                                   "for glass the reflected and transmitted energy of albedo "
+                                   "scaling. Writes DIR/README.md, DIR/residuals.csv, "
+                                   "DIR/lobes.csv, DIR/glass.csv and the charts.")
+    p.add_argument("--out", "-o", default="compensation", metavar="DIR",
+                   help="output directory (default ./compensation; docs/compensation in the "
+                        "repository)")
+    p.add_argument("--preset", action="append", metavar="NAME",
+                   help="a metal preset of ggx (repeatable; default gold, copper, aluminium)")
+    p.add_argument("--f0", action="append", metavar="R,G,B",
+                   help="a Schlick reflectance at normal incidence (repeatable)")
+    p.add_argument("--alphas", default=",".join(map(str, compensation.ALPHAS)), metavar="A,..",
+                   help="GGX roughness values (default %(default)s)")
+    p.add_argument("--mus", default=",".join(map(str, compensation.MUS)), metavar="MU,..",
+                   help="cosines of the view direction for the albedo (default %(default)s)")
+    p.add_argument("--lobe-mus", default=",".join(map(str, compensation.LOBE_MUS)),
+                   metavar="MU,..", help="view cosines of the lobe errors (default %(default)s)")
+    p.add_argument("--glass-eta", default=",".join(map(str, compensation.GLASS_ETAS)),
+                   metavar="ETA,..", help="glass indices (default %(default)s; none: no glass)")
+    p.add_argument("--walks", type=int, default=1 << 20, metavar="N",
+                   help="walks per albedo cell (default 2^20)")
+    p.add_argument("--lobe-walks", type=int, default=1 << 20, metavar="N",
+                   help="walks per lobe cell (default 2^20)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--quiet", "-q", action="store_true", help="no line per material and alpha")
+    p.set_defaults(func=cmd_compensation)
