@@ -80,7 +80,8 @@ def _fresnel_params(material: dict) -> dict:
 def material_label(material: dict) -> str:
     if "preset" in material:
         return material["preset"]
-    return ", ".join(f"{k}={np.round(np.asarray(v), 3).tolist()}" for k, v in material.items())
+    return " ".join(f"{k}={v}" if isinstance(v, str) else
+                    f"{k}={','.join(f'{x:g}' for x in np.ravel(v))}" for k, v in material.items())
 
 
 def conductor_albedo(e, e_avg, ef, f0, favg, a, b):
