@@ -71,3 +71,35 @@ def test_command_refuses_bad_input(tmp_path, args, what):
     r = run_cli("compensation", *args, "--out", str(tmp_path / "x"))
     assert r.returncode != 0 and what in r.stderr, r.stderr
     assert not (tmp_path / "x").exists()
+
+
+def test_recommend_at_f_one_picks_the_table_the_tolerance_allows():
+    """F = 1, alpha 0.5: Turquin's, Fdez-Aguera's and Kulla-Conty's E are 1 like the walk's, so
+    the cheapest compensating method (Turquin) is chosen with the smallest table whose furnace
+    error is within tolerance; the tables' errors shrink with N (64 x 64 within 1e-3 over mu
+    0.02..1, docs/compensation/table_size.md)."""
+    r = C.recommend("ggx", 0.01, alpha=0.5, walks=1 << 16)
+    for k in ("turquin", "fdez_aguera", "kulla_conty"):
+        assert r.methods[k]["error"] < 1e-6
+    assert r.methods["single"]["error"] > 0.01
+    errs = [r.sizes[n]["turquin"] for n in C.SIZES]
+    assert errs == sorted(errs, reverse=True) and errs[-1] < 1e-3
+    assert r.method == "turquin"
+    assert r.table_size == min(n for n in C.SIZES if r.sizes[n]["turquin"] <= 0.01)
+
+
+def test_recommend_glass_and_bad_input():
+    r = C.recommend("ggx_dielectric", 0.05, alpha=0.3, eta=1.5, walks=1 << 16)
+    assert set(r.methods) == set(C.GLASS_METHODS) and r.table_size is None
+    assert r.methods["single_beta"]["error"] > r.methods["scaled_correlated"]["error"]
+    with pytest.raises(C.ParameterError, match="tolerance"):
+        C.recommend("ggx", 0.0, alpha=0.5)
+    with pytest.raises(C.ParameterError, match="beckmann"):
+        C.recommend("beckmann", 0.01)
+
+
+def test_simplest_command_answers_which_compensation():
+    r = run_cli("simplest", "ggx", "--metric", "compensation", "-t", "0.05", "-p",
+                "alpha=0.6", "--preset", "copper")
+    assert r.returncode == 0, r.stderr
+    assert "method: " in r.stdout and "table: " in r.stdout and "kulla_conty" in r.stdout

@@ -74,6 +74,9 @@ def cmd_simplest(args) -> int:
     if args.json:
         print(json.dumps(r.to_json()))
         return 0
+    if args.metric == "compensation":
+        print(r.text())
+        return 0
     v = r.variant
     what = "f over direction pairs" if r.metric == "value" else "E(mu) over mu 0.02..1"
     print(f"{r.model}: cheapest variant within {r.tolerance:g} (max relative error of {what}, "
@@ -179,8 +182,10 @@ def add_parsers(sub) -> None:
     p.add_argument("--param", "-p", action="append", metavar="NAME=VALUE",
                    help="parameter or option (repeatable)")
     p.add_argument("--preset", metavar="MATERIAL[:SOURCE]", help="a published fit")
-    p.add_argument("--metric", choices=("value", "albedo"), default="value",
-                   help="value: f over direction pairs (default); albedo: E(mu)")
+    p.add_argument("--metric", choices=("value", "albedo", "compensation"), default="value",
+                   help="value: f over direction pairs (default); albedo: E(mu); compensation: "
+                        "which energy compensation and table size (ggx, ggx_dielectric), "
+                        "against the random walk")
     p.add_argument("--json", action="store_true", help="one JSON object")
     p.set_defaults(func=cmd_simplest)
 

@@ -27,6 +27,7 @@ two halves of the walks (halved), the part of any method's number that is the wa
 from __future__ import annotations
 
 import io
+from dataclasses import dataclass
 import time
 from pathlib import Path
 
@@ -397,3 +398,187 @@ def compensation_map(out, materials=None, *, alphas=ALPHAS, mus=MUS, lobe_mus=LO
     out.mkdir(parents=True, exist_ok=True)
     write_together(files)
     return rows, lobes, glass
+
+
+# ---- which compensation, which table: ``recommend`` (clbrdf simplest --metric compensation)
+
+# cheapest first: what each method asks of a renderer
+COSTS = {"single": "nothing",
+         "turquin": "an E(mu, alpha) table (N^2 numbers) and a scale",
+         "fdez_aguera": "the split sum's A, B tables (2 N^2; often there for image lighting)",
+         "kulla_conty": "E(mu, alpha) (N^2) and E_avg(alpha) (N) tables, F_avg, an added lobe"}
+GLASS_COSTS = {"single_beta": "nothing",
+               "scaled_correlated": "an E(mu, alpha, eta) glass table, correlated masking (Cycles)",
+               "scaled_beta": "an E(mu, alpha, eta) glass table, exact (beta) masking"}
+REC_MUS = (0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 0.9, 1.0)
+REC_PHIS = (0.0, np.pi / 4, np.pi / 2)
+SIZES = (8, 16, 32, 64)
+SIZE_MUS = np.linspace(0.02, 1, 50)
+
+
+@dataclass
+class Recommendation:
+    """The cheapest compensation of a configuration within ``tolerance`` (max relative error of
+    E against the random walk over mu in REC_MUS, every channel; glass: max absolute error of
+    E_R and of E_T, fractions of the energy, as E_R + E_T = 1), the
+    smallest table within it (the compensated white furnace's error from bilinear lookup of N x N
+    nodes over (mu, r = sqrt(alpha)), mu 0.02..1, within what the method's own error leaves of
+    the tolerance: the two add; a method is chosen only with a table that fits), and the evidence: every method's error, lobe
+    error and cost, every size's error, and for anisotropic GGX the cost of the isotropic table
+    at sqrt(alpha_x alpha_y) (which the methods' errors then include)."""
+    model: str
+    material: str
+    rough: dict
+    tolerance: float
+    method: str | None
+    table_size: int | None
+    methods: dict
+    sizes: dict
+    walk_stderr: float
+    anisotropic: bool
+    seconds: float
+
+    def to_json(self) -> dict:
+        return {k: getattr(self, k) for k in ("model", "material", "rough", "tolerance",
+                                              "method", "table_size", "methods", "sizes",
+                                              "walk_stderr", "anisotropic", "seconds")}
+
+    def text(self) -> str:
+        r = ", ".join(f"{k}={v:g}" for k, v in self.rough.items())
+        costs = GLASS_COSTS if self.model == "ggx_dielectric" else COSTS
+        what = ("absolute error of E_R and E_T" if self.model == "ggx_dielectric"
+                else "relative error of E")
+        lines = [f"{self.model} ({self.material}; {r}): compensation within {self.tolerance:g} "
+                 f"(max {what} against the random walk over mu "
+                 f"{', '.join(f'{m:g}' for m in REC_MUS)}"
+                 + (", phi 0, pi/4, pi/2, the table read at sqrt(alpha_x alpha_y)"
+                    if self.anisotropic else "") + "):",
+                 f"  method: {self.method or 'none within tolerance (use the random walk)'}"
+                 + (f", which needs {costs[self.method]}" if self.method else "")]
+        if self.table_size is not None or self.sizes:
+            lines.append(f"  table: {f'{self.table_size} x {self.table_size}' if self.table_size else 'none of ' + ', '.join(map(str, SIZES)) + ' within tolerance'}"
+                         f" (bilinear over mu and r = sqrt(alpha))")
+        lines += ["", f"{'method':18s} {'E error':>9s} {'at mu':>6s} {'lobe L1':>8s}  needs"]
+        for k, v in self.methods.items():
+            lobe = f"{v['lobe_L1']:8.3f}" if v.get("lobe_L1") is not None else f"{'-':>8s}"
+            lines.append(f"{k:18s} {v['error']:9.2e} {v['at_mu']:6g} {lobe}  {costs[k]}")
+        lines.append(f"(the walk's {'' if self.model == 'ggx_dielectric' else 'relative '}"
+                     f"standard error: up to {self.walk_stderr:.1e})")
+        if self.sizes:
+            lines += ["", f"{'table N x N':12s} {'Turquin':>9s} {'Kulla-Conty':>12s}  "
+                          "(max over mu 0.02..1 of the compensated furnace's error)"]
+            for n, v in self.sizes.items():
+                lines.append(f"{n:>5d} x {n:<4d} {v['turquin']:9.2e} {v['kulla_conty']:12.2e}")
+        return "\n".join(lines)
+
+
+def table_size_errors(alpha: float, sizes=SIZES, *, device=None) -> dict:
+    """Per N: the compensated white furnace's error (F = 1) at ``alpha`` where E comes from N x N
+    nodes over mu, r = sqrt(alpha) in [0, 1] (mu = 0 evaluated at 1e-4, r = 0 at 0.01, as
+    docs/compensation/table_size.md), read by bilinear lookup: Turquin max |E / E_table - 1|,
+    Kulla-Conty max |E - E_table|, over mu 0.02..1."""
+    r = float(np.sqrt(alpha))
+    if r > 1:
+        raise ParameterError(f"alpha={alpha!r}: the tables span r = sqrt(alpha) in [0, 1]")
+    e = _e(alpha, SIZE_MUS, device=device)
+    out = {}
+    for n in sizes:
+        nodes = np.linspace(0, 1, n)
+        j = min(int(r * (n - 1)), n - 2)
+        t = r * (n - 1) - j
+        mu_n = np.maximum(nodes, 1e-4)
+        cols = [_e(max(nodes[k], 0.01) ** 2, mu_n, device=device) for k in (j, j + 1)]
+        col = (1 - t) * cols[0] + t * cols[1]
+        look = np.interp(SIZE_MUS, nodes, col)
+        out[int(n)] = {"turquin": float(np.max(np.abs(e / look - 1))),
+                       "kulla_conty": float(np.max(np.abs(e - look)))}
+    return out
+
+
+def recommend(model: str, tolerance: float, *, walks: int = 1 << 20, seed: int = 0,
+              device=None, **params) -> Recommendation:
+    """Which compensation, and which table size, a GGX conductor (``ggx``: alpha or alpha_x,
+    alpha_y, any Fresnel or a preset) or rough glass (``ggx_dielectric``: alpha, eta) needs at
+    ``tolerance``, measured against the random walk at this configuration."""
+    t0 = time.perf_counter()
+    if isinstance(tolerance, bool) or not isinstance(tolerance, (int, float)) or \
+            not 0 < float(tolerance) < 1:
+        raise ParameterError(f"tolerance={tolerance!r} is out of range: valid tolerance is in "
+                             "(0, 1) (relative error of E)")
+    if model not in ("ggx", "ggx_dielectric"):
+        raise ParameterError(f"model={model!r}: compensation is measured for ggx (conductors) "
+                             "and ggx_dielectric (glass)")
+    rough = {k: float(params.pop(k)) for k in ("alpha", "alpha_x", "alpha_y") if k in params}
+    if not rough:
+        rough = {"alpha": 0.5}
+    aniso = "alpha_x" in rough or "alpha_y" in rough
+    if aniso and not {"alpha_x", "alpha_y"} <= set(rough):
+        raise ParameterError("give alpha_x and alpha_y both (anisotropic), or alpha")
+    alpha_iso = rough.get("alpha") or float(np.sqrt(rough["alpha_x"] * rough["alpha_y"]))
+    mus = np.array(REC_MUS)
+    if model == "ggx_dielectric":
+        eta = float(params.pop("eta", 1.5))
+        if params or aniso:
+            raise ParameterError(f"ggx_dielectric's compensation takes alpha and eta, not "
+                                 f"{', '.join(sorted(params) or ['alpha_x, alpha_y'])}")
+        rows = glass_cells((eta,), (alpha_iso,), mus, walks=walks, seed=seed, device=device)
+        methods = {}
+        for k in ("single_beta", "scaled_correlated", "scaled_beta"):
+            # absolute: E_R + E_T = 1, so an error is a fraction of all the energy
+            err = np.array([max(abs(r[f"{k}_R_error"]), abs(r[f"{k}_T_error"])) for r in rows])
+            i = int(np.argmax(err))
+            methods[k] = {"error": float(err.max()), "at_mu": float(mus[i]), "lobe_L1": None}
+        se = max(r["walk_stderr"] for r in rows)
+        material = f"eta={eta:g}"
+        sizes = {}
+    else:
+        material = dict(params)
+        Model("ggx", channels=3, **rough, **material)               # checked before any work
+        fres = _fresnel_params(material)
+        fkw = {k: v for k, v in fres.items() if k != "channels"}
+        f0 = _fresnel_at(material, np.array([1.0]), device)[0]
+        favg = np.asarray(fresnel_avg("ggx", device=device, **fres), float)
+        xg, wg = np.polynomial.legendre.leggauss(AVG_NODES)
+        mg, wg = (xg + 1) / 2, wg / 2
+        e = _e(alpha_iso, mus, device=device)[:, None, None]
+        e_avg = float(np.sum(wg * 2 * mg * _e(alpha_iso, mg, device=device)))
+        a = _e(alpha_iso, mus, device=device, fresnel="schlick", f0=1.0, f90=0.0)[:, None, None]
+        b = _e(alpha_iso, mus, device=device, fresnel="schlick", f0=0.0, f90=1.0)[:, None, None]
+        phis = np.array(REC_PHIS if aniso else (0.0,))
+        full = dict(rough) if aniso else {"alpha": alpha_iso}
+        mf = Model("ggx", precision="double", device=device, channels=3, **full, **fkw)
+        ef = np.asarray(albedo(mf, mus[:, None], phis[None, :], estimator="quadrature",
+                               tol=TOL).albedo, float)
+        m = Model("ggx", device=device, channels=3, **full, **fkw)
+        w = walk_albedo(m, mus[:, None], phis[None, :], walks=walks, seed=seed)
+        est = conductor_albedo(e, e_avg, ef, f0, favg, a, b)
+        methods = {}
+        for k in ("single", "turquin", "fdez_aguera", "kulla_conty"):
+            rel = np.abs(est[k] / w.albedo - 1)
+            i = np.unravel_index(int(np.argmax(rel)), rel.shape)
+            methods[k] = {"error": float(rel.max()), "at_mu": float(mus[i[0]]), "lobe_L1": None}
+        se = float(np.max(w.stderr / w.albedo))
+        if not aniso:
+            _, lobes = conductor_cells(material, (alpha_iso,), (), (0.5,), walks=walks,
+                                       lobe_walks=walks, seed=seed + 1, device=device)
+            for k in ("turquin", "fdez_aguera", "kulla_conty"):
+                methods[k]["lobe_L1"] = max(r[f"{k}_L1"] for r in lobes)
+        material = material_label(material) if material else "F = 1"
+        sizes = table_size_errors(alpha_iso, device=device) if alpha_iso <= 1 else {}
+    # the cheapest method whose error leaves room for a table's (the two add)
+    method = size = None
+    for k in methods:
+        room = tolerance - methods[k]["error"]
+        if room < 0:
+            continue
+        if k in ("single", "single_beta") or not sizes:
+            method = k
+            break
+        key = "kulla_conty" if k == "kulla_conty" else "turquin"
+        fits = [n for n, v in sizes.items() if v[key] <= room]
+        if fits:
+            method, size = k, fits[0]
+            break
+    return Recommendation(model, material if isinstance(material, str) else str(material),
+                          rough, float(tolerance), method, size, methods, sizes, se, aniso,
+                          time.perf_counter() - t0)

@@ -61,6 +61,7 @@ from ..api.model import Model
 from ..models import MODELS, get_spec
 from ..models.spec import ParameterError
 from ..tables.outputs import csv_rows, csv_text, write_together
+from .compensation import recommend
 from .fresnel_fits import fit_conductor
 
 ALBEDO_MUS = (0.02, 0.1, 0.25, 0.5, 0.75, 1.0)
@@ -374,7 +375,11 @@ def simplest(model: str, tolerance: float, metric: str = "value", *, device=None
              **params) -> Simplest:
     """The cheapest variant of a configuration whose error against the full configuration (in
     double precision) is at most ``tolerance`` (relative; ``metric`` ``value``: f over a grid
-    of direction pairs, ``albedo``: E over ALBEDO_MUS), with every candidate measured."""
+    of direction pairs, ``albedo``: E over ALBEDO_MUS), with every candidate measured.
+    ``metric="compensation"``: which energy compensation and table size the configuration
+    needs, against the random walk (clbrdf.studies.compensation.recommend)."""
+    if metric == "compensation":
+        return recommend(model, tolerance, device=device, **params)
     if isinstance(tolerance, bool) or not isinstance(tolerance, (int, float)) or \
             not 0 <= float(tolerance) < 1e6:
         raise ParameterError(f"tolerance={tolerance!r} is out of range: valid tolerance is in "
