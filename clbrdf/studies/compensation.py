@@ -37,6 +37,7 @@ from ..api.albedo import albedo, fresnel_avg
 from ..api.model import Model
 from ..api.walk import walk_albedo, walk_sample
 from ..models.spec import ParameterError
+from ..tables.outputs import csv_text, write_together
 
 METHODS = ("kulla_conty", "turquin", "fdez_aguera", "single")
 GLASS_METHODS = ("scaled_beta", "scaled_correlated", "single_beta")
@@ -361,7 +362,6 @@ def compensation_map(out, materials=None, *, alphas=ALPHAS, mus=MUS, lobe_mus=LO
     """Measure and write OUT/README.md, OUT/residuals.csv, OUT/lobes.csv, OUT/glass.csv and
     their charts. ``materials``: ggx keyword dictionaries (default: the metal presets gold,
     copper, aluminium); ``glass_etas`` () leaves glass out."""
-    from ..tables.outputs import csv_text, write_together
     materials = [{"preset": m} for m in METALS] if materials is None else list(materials)
     for a in alphas:
         if not 1e-3 <= float(a) <= 2:
