@@ -305,7 +305,9 @@ def report(rows, lobes, glass, *, command: str, seconds: float, walks: int, lobe
          "microfacet BSDF itself; each method is what a renderer adds to the single-scattering "
          "lobe, computed from this engine's exact E(mu), E_avg, F_avg (device quadrature, "
          "double; a table's own interpolation error is in table_size.md). Error = E_method - "
-         "E_walk (negative: the method is too dark).", ""]
+         "E_walk (negative: the method is too dark). What the repository's map shows, in "
+         "words: findings.md; for one configuration at a tolerance: `clbrdf simplest ggx "
+         "--metric compensation`.", ""]
     if rows:
         L += ["![albedo and lobe errors per alpha](residuals.png)", "",
               "## Albedo, GGX conductors", "",
