@@ -89,3 +89,51 @@ def test_dielectric_walk_single_scattering(k):
     assert abs(t1 - et) <= ZD * np.sqrt(et * (1 - et) / N) + 1e-7, (t1, et)
     et_model = e("transmission", "correlated")
     assert et_model > et
+
+
+EVAL = [("ggx", 0.6, 0.5, (-0.3, 0.4), {}), ("ggx", (0.2, 0.7), 0.3, (0.5, -0.2), {}),
+        ("ggx", 0.3, 0.8, (0.1, 0.1), {"fresnel_kind": "conductor", "eta": 0.2, "k": 3.0}),
+        ("beckmann", 0.5, 0.4, (-0.6, 0.0), {"fresnel_kind": "schlick", "f0": 0.4})]
+ZE = float(sps.norm.isf(sidak(1e-3, len(EVAL) + 4) / 2))
+
+
+@pytest.mark.parametrize("k", range(len(EVAL)))
+def test_stochastic_evaluation_first_order_is_the_brdf(k):
+    """The next-event estimate's first-order part, averaged over walks, is the microfacet BRDF
+    (height-correlated masking, same Fresnel) times cos(theta_i) at the pair, within the Sidak
+    bound (family-wise 1e-3) of its standard error."""
+    dist, alpha, mu, (x, y), fr = EVAL[k]
+    ax, ay = (alpha, alpha) if np.isscalar(alpha) else alpha
+    wo = _wo(mu, 0.0)
+    wi = np.array([x, y, np.sqrt(1 - x * x - y * y)])
+    e = H.evaluate(wo, wi, N, dist=dist, alpha_x=ax, alpha_y=ay, seed=80 + k, **fr)
+    rough = {"alpha": alpha} if np.isscalar(alpha) else {"alpha_x": ax, "alpha_y": ay}
+    kind = fr.get("fresnel_kind", "one")
+    ref = reference(dist, fresnel=kind, **rough, **{a: b for a, b in fr.items()
+                                                     if a != "fresnel_kind"})
+    f = float(np.ravel(ref.eval(wo[None], wi[None]))[0]) * wi[2]
+    m1, s1 = e[:, 0].mean(), e[:, 0].std() / np.sqrt(N)
+    assert abs(m1 - f) <= ZE * s1 + 1e-12, (m1, f, (m1 - f) / s1)
+    assert np.all(e >= 0)
+
+
+@pytest.mark.parametrize("alpha", [0.3, 1.0])
+def test_stochastic_evaluation_integrates_to_the_walks_albedo(alpha):
+    """Over uniformly drawn wi (2048 directions, 256 walks each), 2 pi times the estimate of
+    each order integrates to the part of E the walks of that order carry (Schlick F0 0.6):
+    the evaluation and the sampling are one BRDF, order by order."""
+    wo = _wo(0.6, 0.0)
+    rng = np.random.default_rng(5)
+    k, per = 2048, 256
+    z = rng.random(k)
+    phi = 2 * np.pi * rng.random(k)
+    r = np.sqrt(1 - z * z)
+    dirs = np.stack([r * np.cos(phi), r * np.sin(phi), z], -1)
+    est = np.array([H.evaluate(wo, d, per, alpha_x=alpha, seed=1000 + j, fresnel_kind="schlick",
+                               f0=0.6).mean(axis=0) for j, d in enumerate(dirs)]) * 2 * np.pi
+    _, wt, order, _ = H.walk(wo, N, alpha_x=alpha, seed=9, fresnel_kind="schlick", f0=0.6)
+    for c, sel in enumerate((order == 1, order == 2, order >= 3)):
+        x = wt * sel
+        a, sa = est[:, c].mean(), est[:, c].std() / np.sqrt(k)
+        b, sb = x.mean(), x.std() / np.sqrt(N)
+        assert abs(a - b) <= ZE * np.hypot(sa, sb), (c, a, b, (a - b) / np.hypot(sa, sb))

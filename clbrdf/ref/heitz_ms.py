@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.special import erf, erfc, erfinv
 
-from .microfacet import fresnel
+from .microfacet import D as D_, fresnel
 
 H_START = 1.0 + 1e-4        # above the highest microfacet (heights in [-1, 1])
 
@@ -122,6 +122,24 @@ def walk(wo, n, *, dist="ggx", alpha_x=0.5, alpha_y=None, max_order=64, seed=0,
     """n random walks from wo (a unit vector above the surface): (wi, weight, order, lost), wi
     the direction each leaves along ((n, 3), NaN where cut), weight its throughput (0 where
     cut), order its number of hits, lost the number of walks cut at max_order."""
+    return _walk(wo, n, None, dist, alpha_x, alpha_y, max_order, seed, fresnel_kind,
+                 fresnel_params)[:4]
+
+
+def evaluate(wo, wi, n, *, dist="ggx", alpha_x=0.5, alpha_y=None, max_order=64, seed=0,
+             fresnel_kind="one", **fresnel_params):
+    """The paper's stochastic evaluation (its section 4.2, next-event estimation): n walks from
+    wo, each adding at every hit k the throughput before it times F(v.m) p(v -> wi) G1(wi, h_k),
+    v the reversed ray, m = normalize(v + wi), the phase function p = D(m) / (4 A(v)) (v.m > 0;
+    A(v) = v.z (1 + Lambda(v)), the projected area, for v on either side) and G1(wi, h) =
+    C1(h)^Lambda(wi) the chance that wi leaves from height h. Returns (n, 3) per-walk estimates of
+    f(wo, wi) cos(theta_i) by the order of the hit (1, 2, 3 and more): unbiased, their mean over
+    walks is the BRDF times the cosine, their spread its noise."""
+    return _walk(wo, n, np.asarray(wi, float), dist, alpha_x, alpha_y, max_order, seed,
+                 fresnel_kind, fresnel_params)[4]
+
+
+def _walk(wo, n, toward, dist, alpha_x, alpha_y, max_order, seed, fresnel_kind, fresnel_params):
     ay = alpha_x if alpha_y is None else alpha_y
     ax = alpha_x
     rng = np.random.default_rng(seed)
@@ -131,6 +149,9 @@ def walk(wo, n, *, dist="ggx", alpha_x=0.5, alpha_y=None, max_order=64, seed=0,
     order = np.zeros(n, dtype=np.int64)
     alive = np.ones(n, dtype=bool)
     cut = np.zeros(n, dtype=bool)
+    nee = np.zeros((n, 3))
+    if toward is not None:
+        lam_i = _lambda(dist, toward[None, :], ax, ay)[0]
     while alive.any():
         idx = np.flatnonzero(alive)
         u = rng.random((idx.size, 3))
@@ -142,13 +163,24 @@ def walk(wo, n, *, dist="ggx", alpha_x=0.5, alpha_y=None, max_order=64, seed=0,
         h[go] = hn[on]
         order[go] += 1
         wv = -w[go]
+        if toward is not None:                                  # next-event estimation
+            mh = wv + toward
+            mh /= np.linalg.norm(mh, axis=-1, keepdims=True)
+            vm = np.einsum("ij,ij->i", wv, mh)
+            area = wv[:, 2] * (1 + _lambda(dist, wv, ax, ay))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                p = np.where((vm > 0) & (mh[:, 2] > 0),
+                             D_(dist, mh, ax, ay) / (4 * area), 0.0)
+                g1 = ((np.clip(h[go], -1, 1) + 1) / 2) ** lam_i
+            c = weight[go] * fresnel(fresnel_kind, np.clip(vm, 0, 1), **fresnel_params) * p * g1
+            nee[go, np.minimum(order[go], 3) - 1] += np.where(np.isfinite(c), c, 0.0)
         m = _normal(dist, wv, uk[:, 1], uk[:, 2], ax, ay)
         c = np.einsum("ij,ij->i", wv, m)
         weight[go] *= fresnel(fresnel_kind, c, **fresnel_params)
         w[go] = -wv + 2 * c[:, None] * m
     w[cut] = np.nan
     weight[cut] = 0.0
-    return w, weight, order, int(np.count_nonzero(cut))
+    return w, weight, order, int(np.count_nonzero(cut)), nee
 
 
 def _refract(wi, m, eta):
