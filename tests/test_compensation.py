@@ -73,6 +73,7 @@ def test_command_refuses_bad_input(tmp_path, args, what):
     assert not (tmp_path / "x").exists()
 
 
+@pytest.mark.slow      # table sizes: ~250 device quadratures
 def test_recommend_at_f_one_picks_the_table_the_tolerance_allows():
     """F = 1, alpha 0.5: Turquin's, Fdez-Aguera's and Kulla-Conty's E are 1 like the walk's, so
     the cheapest compensating method (Turquin) is chosen with the smallest table whose furnace
@@ -88,6 +89,7 @@ def test_recommend_at_f_one_picks_the_table_the_tolerance_allows():
     assert r.table_size == min(n for n in C.SIZES if r.sizes[n]["turquin"] <= 0.01)
 
 
+@pytest.mark.slow      # table sizes: ~250 device quadratures
 def test_recommend_glass_and_bad_input():
     r = C.recommend("ggx_dielectric", 0.05, alpha=0.3, eta=1.5, walks=1 << 16)
     assert set(r.methods) == set(C.GLASS_METHODS) and r.table_size is None
@@ -98,6 +100,7 @@ def test_recommend_glass_and_bad_input():
         C.recommend("beckmann", 0.01)
 
 
+@pytest.mark.slow      # table sizes: ~250 device quadratures
 def test_simplest_command_answers_which_compensation():
     r = run_cli("simplest", "ggx", "--metric", "compensation", "-t", "0.05", "-p",
                 "alpha=0.6", "--preset", "copper")

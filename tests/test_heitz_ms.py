@@ -117,6 +117,7 @@ def test_stochastic_evaluation_first_order_is_the_brdf(k):
     assert np.all(e >= 0)
 
 
+@pytest.mark.slow      # 2048 directions x 2 roughnesses of NumPy walks
 @pytest.mark.parametrize("alpha", [0.3, 1.0])
 def test_stochastic_evaluation_integrates_to_the_walks_albedo(alpha):
     """Over uniformly drawn wi (2048 directions, 256 walks each), 2 pi times the estimate of
