@@ -688,7 +688,7 @@ FN rand4 ms_numbers(uintN walk, uint point, uint stream, uintN event, uint seed_
  * of it, b = block0 + g % launch_blocks and L = block_len (a multiple of W); walks at or past
  * `walks` are left out. Walk j of the point is keyed (j, point, 0, event). Lane l takes walks
  * b L + l, + W, + 2 W, ...: a lane whose walk ends starts its next one at the next event, so
- * that no lane waits for the longest walk of its group (which cost 2x). Per class k (the order,
+ * that no lane waits for the longest walk of its group (which cost 1.4x). Per class k (the order,
  * min(hits, 3) - 1, plus MS_ORDERS where the walk leaves below the surface) and channel c, the
  * sums of the weight and of its square at out[WALK_OUT g + 2 (k CHANNELS + c) + 0, 1]; then the
  * number of walks cut at max_order and the number of hits of all walks. */
