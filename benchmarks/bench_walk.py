@@ -11,6 +11,10 @@ The job: E(mu) at P values of mu, one point each, GGX alpha (default 0.5), F = 1
   walk-glass    ggx_dielectric, eta 1.5, masking='beta' (the dielectric walk: reflection or
                 refraction at each hit)
   walk-f64      walk-ggx in double precision
+  walk-beckmann walk-ggx with Beckmann (rejection for the visible normals below the horizon)
+  eval-ggx      clbrdf.walk_eval(Model('ggx', alpha)), single: the stochastic evaluation at
+                (wo, wi) pairs (wo at each mu, wi its mirror direction turned by 90 degrees),
+                walks per second (a walk adds its next-event estimate at every hit)
   numpy-walk    clbrdf.ref.heitz_ms.walk (float64 NumPy, one process), fewer walks
 Interleaved rounds after one warm-up call per row; medians and ranges; per CPU-second.
 
@@ -46,6 +50,10 @@ def rows(args):
     gold = clbrdf.Model("ggx", alpha=a, preset="gold", device=args.device)
     glass = clbrdf.Model("ggx_dielectric", alpha=a, eta=1.5, masking="beta", device=args.device)
     f64 = clbrdf.Model("ggx", alpha=a, precision="double", device=args.device)
+    bk = clbrdf.Model("beckmann", alpha=a, device=args.device)
+    st = np.sqrt(1 - mus * mus)
+    wo = np.stack([st, 0 * st, mus], -1)
+    wi = np.stack([0 * st, st, mus], -1)
 
     def ss():
         r = clbrdf.albedo(ggx, mus, samples=n)
@@ -56,6 +64,10 @@ def rows(args):
             r = clbrdf.walk_albedo(m, mus, walks=nw)
             return len(mus) * nw, float(np.sum(r.mean_hits) * nw), r
         return fn
+
+    def ev():
+        r = clbrdf.walk_eval(ggx, wo, wi, walks=nw)
+        return len(mus) * nw, float(np.sum(r.mean_hits) * nw), None
 
     def ref():
         k = 1 << args.log2_numpy
@@ -71,6 +83,9 @@ def rows(args):
                  ("walk-glass", "clbrdf.walk_albedo, ggx_dielectric eta 1.5, masking=beta, single",
                   len(mus), nw, walk(glass)),
                  ("walk-f64", "clbrdf.walk_albedo, ggx (F = 1), double", len(mus), nw, walk(f64)),
+                 ("walk-beckmann", "clbrdf.walk_albedo, beckmann (F = 1), single", len(mus), nw,
+                  walk(bk)),
+                 ("eval-ggx", "clbrdf.walk_eval, ggx (F = 1), single", len(mus), nw, ev),
                  ("numpy-walk", "clbrdf.ref.heitz_ms.walk, float64 NumPy", 8, 1 << args.log2_numpy,
                   ref)]
 

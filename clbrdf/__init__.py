@@ -7,7 +7,7 @@ The public namespace. The package's layers, each importing only those below it
 from .api.albedo import AlbedoResult, albedo, albedo_avg, fresnel_avg
 from .api.model import Model, model
 from .api.useless import UselessEstimatorWarning
-from .api.walk import WalkResult, walk_albedo, walk_sample
+from .api.walk import WalkEvalResult, WalkResult, walk_albedo, walk_eval, walk_sample
 from .models import MODELS, presets
 from .models.spec import ParameterError
 from .runtime.build import get_include
@@ -26,5 +26,5 @@ __all__ = ["AlbedoResult", "DeviceError", "MODELS", "Model", "ParameterError", "
            "TargetStderrWarning", "UselessEstimatorWarning", "WidthFallbackWarning",
            "__version__", "albedo", "albedo_avg", "albedo_table", "check", "fit_ltc", "fresnel_avg",
            "get_device", "get_include", "list_devices", "load_tables", "ltc_errors", "make_layout", "model",
-           "open_sweep", "presets", "save_tables", "sweep", "walk_albedo", "walk_sample",
-           "WalkResult"]
+           "open_sweep", "presets", "save_tables", "sweep", "walk_albedo", "walk_eval",
+           "walk_sample", "WalkEvalResult", "WalkResult"]

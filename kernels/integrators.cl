@@ -667,22 +667,29 @@ __kernel void ltc_loss(const global real_t *P, Tables TABLES, const global real_
 
 /* ---- the random walk on the microsurface (kernels/heitz_ms.h) ---- */
 
-/* The four numbers of event `event` of walk `walk`: counter (walk, point, stream, event). */
-FN rand4 ms_numbers(uintN walk, uint point, uint stream, uintN event, uint seed_lo, uint seed_hi)
-{
-    uint4N c = {walk, (uintN)point, (uintN)stream, event};
-    c = philox4x32_10(c, seed_lo, seed_hi);
-    rand4 r = {bits_to_unit(c.c0), bits_to_unit(c.c1), bits_to_unit(c.c2), bits_to_unit(c.c3)};
-    return r;
-}
-
-#define WALK_SUMS (4 * MS_ORDERS * CHANNELS)
-#define WALK_OUT (WALK_SUMS + 2)
 #if W == 1
 #define MS_UMASK(m) (m)
 #else
 #define MS_UMASK(m) CAT(convert_int, W)(m)     /* a mask for select() on uint lanes */
 #endif
+
+/* The lanes `fin` that finished start their next walk (id + W); the others go to their next
+ * event. */
+FN void ms_restart(MsWalk *s, const MsWalk fresh, maskN fin, uintN *id, uintN *event, uint end)
+{
+    *id = select(*id, *id + (uintN)W, MS_UMASK(fin));
+    *event = select(*event + (uintN)1, (uintN)0, MS_UMASK(fin));
+    s->w = select3(s->w, fresh.w, fin);
+    s->h = sel(s->h, fresh.h, fin);
+    s->weight = spec_sel(s->weight, fresh.weight, fin);
+    s->order = sel(s->order, fresh.order, fin);
+    s->inside = sel(s->inside, fresh.inside, fin);
+    s->cut = sel(s->cut, fresh.cut, fin);
+    s->alive = sel(s->alive, TO_MASK(*id < (uintN)end), fin);
+}
+
+#define WALK_SUMS (4 * MS_ORDERS * CHANNELS)
+#define WALK_OUT (WALK_SUMS + 2)
 
 /* Work-item g: point point0 + g / launch_blocks (its parameters and wo), walks [b L, b L + L)
  * of it, b = block0 + g % launch_blocks and L = block_len (a multiple of W); walks at or past
@@ -713,10 +720,11 @@ __kernel void walk_albedo(const global real_t *P, Tables TABLES, const global re
     const MsWalk fresh = ms_start(wo);
     MsWalk s = fresh;
     s.alive = TO_MASK(id < (uintN)end);
+    MsKey k = {id, point, 0, seed_lo, seed_hi};
     while (MS_ANY(s.alive)) {
         maskN was = s.alive;
-        maskN left = ms_step(&p, m, &s, ms_numbers(id, point, 0, event, seed_lo, seed_hi),
-                             max_order);
+        k.walk = id;
+        maskN left = ms_step(&p, m, &s, k, event, max_order);
         maskN over = was & s.cut;
         maskN fin = left | over;
         realN cls = fmin(s.order, (realN)MS_ORDERS) - 1
@@ -731,22 +739,81 @@ __kernel void walk_albedo(const global real_t *P, Tables TABLES, const global re
         }
         cut += sel((realN)0, (realN)1, over);
         hits += sel((realN)0, s.order, fin);
-        /* the lanes that finished start their next walk */
-        id = select(id, id + (uintN)W, MS_UMASK(fin));
-        event = select(event + (uintN)1, (uintN)0, MS_UMASK(fin));
-        s.w = select3(s.w, fresh.w, fin);
-        s.h = sel(s.h, fresh.h, fin);
-        s.weight = spec_sel(s.weight, fresh.weight, fin);
-        s.order = sel(s.order, fresh.order, fin);
-        s.inside = sel(s.inside, fresh.inside, fin);
-        s.cut = sel(s.cut, fresh.cut, fin);
-        s.alive = sel(s.alive, TO_MASK(id < (uintN)end), fin);
+        ms_restart(&s, fresh, fin, &id, &event, end);
     }
     for (int j = 0; j < WALK_SUMS; ++j)
         out[WALK_OUT * g + j] = HSUM(acc[j]);
     out[WALK_OUT * g + WALK_SUMS] = HSUM(cut);
     out[WALK_OUT * g + WALK_SUMS + 1] = HSUM(hits);
 }
+
+#if !CAT(MODEL, _TRANSMITS)
+/* The paper's stochastic evaluation (section 4.2, next-event estimation; ms_nee): walks as in
+ * walk_albedo from wo (work-item layout, keys and lane refill the same), each summing its
+ * estimates of f(wo, wi) cos(theta_i) at every hit. Per class k (the order of the hit, min(hits,
+ * 3) - 1; k = MS_ORDERS: the walk's total) and channel c, the sums over walks of the walk's
+ * estimate and of its square at out[WALK_OUT g + 2 (k CHANNELS + c) + 0, 1] (the slots of
+ * classes past MS_ORDERS are 0); then the walks cut at max_order and the hits of all walks. */
+__kernel void walk_eval(const global real_t *P, Tables TABLES, const global real_t *WO,
+                        const global real_t *WI, const ulong npoints, const ulong point0,
+                        const uint block0, const uint launch_blocks, const uint walks,
+                        const uint seed_lo, const uint seed_hi, const uint max_order,
+                        const uint block_len, global real_t *out)
+{
+    ulong g = get_global_id(0), lp = g / launch_blocks;
+    if (lp >= npoints) return;
+    uint block = block0 + (uint)(g % launch_blocks), point = (uint)(point0 + lp);
+    Params p = splat_params(P, TABLES, npoints, lp);
+    vec3 wo = v3((realN)WO[lp], (realN)WO[npoints + lp], (realN)WO[2 * npoints + lp]);
+    vec3 wi = v3((realN)WI[lp], (realN)WI[npoints + lp], (realN)WI[2 * npoints + lp]);
+    Microfacet m = ms_distribution(&p);
+    realN lam_i = MF(Lambda)(m, wi);
+    realN acc[WALK_SUMS], cur[MS_ORDERS * CHANNELS];
+    for (int j = 0; j < WALK_SUMS; ++j)
+        acc[j] = 0;
+    for (int j = 0; j < MS_ORDERS * CHANNELS; ++j)
+        cur[j] = 0;
+    realN cut = 0, hits = 0;
+    uint end = min(block * block_len + block_len, walks);
+    uintN id = (uintN)(block * block_len) + LANE_IDS, event = (uintN)0;
+    const MsWalk fresh = ms_start(wo);
+    MsWalk s = fresh;
+    s.alive = TO_MASK(id < (uintN)end);
+    MsKey k = {id, point, 0, seed_lo, seed_hi};
+    while (MS_ANY(s.alive)) {
+        maskN was = s.alive;
+        k.walk = id;
+        rand4 u = ms_numbers(k, event);
+        maskN left = ms_advance(m, &s, u.u0, max_order);
+        spec c = ms_nee(&p, m, &s, wi, lam_i);
+        realN cls = fmin(s.order, (realN)MS_ORDERS) - 1;
+        for (int j = 0; j < MS_ORDERS; ++j)
+            for (int ch = 0; ch < CHANNELS; ++ch)
+                cur[j * CHANNELS + ch] += sel((realN)0, c.c[ch], cls == (realN)j);
+        ms_scatter(&p, m, &s, u, k, event);
+        maskN over = was & s.cut;
+        maskN fin = left | over;
+        for (int ch = 0; ch < CHANNELS; ++ch) {
+            realN total = 0;
+            for (int j = 0; j <= MS_ORDERS; ++j) {
+                realN v = j < MS_ORDERS ? sel((realN)0, cur[j * CHANNELS + ch], fin) : total;
+                total += v;
+                acc[2 * (j * CHANNELS + ch)] += v;
+                acc[2 * (j * CHANNELS + ch) + 1] += v * v;
+            }
+            for (int j = 0; j < MS_ORDERS; ++j)
+                cur[j * CHANNELS + ch] = sel(cur[j * CHANNELS + ch], (realN)0, fin);
+        }
+        cut += sel((realN)0, (realN)1, over);
+        hits += sel((realN)0, s.order, fin);
+        ms_restart(&s, fresh, fin, &id, &event, end);
+    }
+    for (int j = 0; j < WALK_SUMS; ++j)
+        out[WALK_OUT * g + j] = HSUM(acc[j]);
+    out[WALK_OUT * g + WALK_SUMS] = HSUM(cut);
+    out[WALK_OUT * g + WALK_SUMS + 1] = HSUM(hits);
+}
+#endif
 
 /* One walk per query i (batch layout, n a multiple of W): walk first + i, keyed (first + i, 0,
  * stream, event). WI the direction it leaves along (NaN where cut), weight its throughput per
@@ -764,9 +831,9 @@ __kernel void walk_sample(const global real_t *P, Tables TABLES, const global re
     MsWalk s = ms_start(load_dir(WO, n, i));
     vec3 wi = v3((realN)NAN, (realN)NAN, (realN)NAN);
     realN order = 0;
+    MsKey k = {id, 0, stream, seed_lo, seed_hi};
     for (uint e = 0; MS_ANY(s.alive); ++e) {
-        maskN left = ms_step(&p, m, &s, ms_numbers(id, 0, stream, (uintN)e, seed_lo, seed_hi),
-                             max_order);
+        maskN left = ms_step(&p, m, &s, k, (uintN)e, max_order);
         wi = select3(wi, s.w, left);
         order = sel(order, s.order, left);
     }
