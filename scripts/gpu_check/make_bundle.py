@@ -20,8 +20,9 @@ The bundle (a directory, and with --tar a .tar.gz of it):
                                  the deterministic quadrature (quadrature.txt)
   check/MODEL.json               `clbrdf check MODEL --json` on this CPU (ggx, ggx_dielectric,
                                  charlie): the verdicts the GPU must repeat
-  wheels/                        clbrdf's wheel and its dependencies (pyopencl, numpy, scipy,
-                                 pytest, ...) for each --python version, manylinux x86_64
+  wheels/                        clbrdf's wheel and its requirements (pyopencl, numpy, scipy,
+                                 matplotlib, ...) and pytest for each --python version,
+                                 manylinux x86_64
   tests/, benchmarks/            the conformance battery and bench_albedo.py, to run on the GPU
                                  through pyopencl where NVIDIA's OpenCL driver is present
   manifest.json                  where and when it was made, the cases, the tolerances
@@ -170,11 +171,13 @@ def write_wheels(out: Path, pythons: list, py: str) -> None:
     d.mkdir()
     subprocess.run([py, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(d), str(ROOT)],
                    check=True)
-    reqs = ["numpy", "scipy", "pyopencl", "pytest", "pytest-xdist"]
+    wheel = next(d.glob("clbrdf-*.whl"))
+    reqs = [str(wheel), "pytest", "pytest-xdist"]      # clbrdf's own requirements with it
     for v in pythons:
         subprocess.run([py, "-m", "pip", "download", "-q", "--only-binary=:all:", "--python-version",
                         v, "--platform", "manylinux2014_x86_64", "--platform",
-                        "manylinux_2_28_x86_64", "-d", str(d), *reqs], check=True)
+                        "manylinux_2_28_x86_64", "--platform", "linux_x86_64", "-d", str(d),
+                        *reqs], check=True)
         print(f"wheels for Python {v}", flush=True)
 
 
