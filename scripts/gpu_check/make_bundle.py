@@ -167,18 +167,34 @@ def write_checks(out: Path, py: str) -> None:
 
 
 def write_wheels(out: Path, pythons: list, py: str) -> None:
+    """clbrdf's wheel and, for each Python version, the wheels of its requirements and pytest:
+    resolved for that version by `uv pip compile --python-version` (pip download evaluates the
+    requirements' markers with the running Python: for 3.10 it asked for zarr 3, which needs
+    3.11, and left out pytest's tomli and exceptiongroup), then fetched pin by pin."""
     d = out / "wheels"
     d.mkdir()
     subprocess.run([py, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(d), str(ROOT)],
                    check=True)
     wheel = next(d.glob("clbrdf-*.whl"))
-    reqs = [str(wheel), "pytest", "pytest-xdist"]      # clbrdf's own requirements with it
+    if subprocess.run([py, "-m", "uv", "--version"], capture_output=True).returncode:
+        raise SystemExit("make_bundle: needs uv to resolve each Python's requirements "
+                         "(pip install uv; it is in clbrdf's test extra), or --no-wheels")
+    req = out / "requirements.in"
+    req.write_text(f"clbrdf @ {wheel.resolve().as_uri()}\npytest\npytest-xdist\n")
     for v in pythons:
-        subprocess.run([py, "-m", "pip", "download", "-q", "--only-binary=:all:", "--python-version",
-                        v, "--platform", "manylinux2014_x86_64", "--platform",
-                        "manylinux_2_28_x86_64", "--platform", "linux_x86_64", "-d", str(d),
-                        *reqs], check=True)
-        print(f"wheels for Python {v}", flush=True)
+        r = subprocess.run([py, "-m", "uv", "pip", "compile", str(req), "-q", "--no-header",
+                            "--no-annotate", "--python-version", v, "--python-platform",
+                            "x86_64-manylinux_2_28", "--only-binary", ":all:"],
+                           capture_output=True, text=True, check=True)
+        pins = [ln.split(";")[0].strip() for ln in r.stdout.splitlines()
+                if ln.strip() and not ln.startswith(("#", "clbrdf"))]
+        (d / f"requirements-{v}.txt").write_text("\n".join(pins) + "\n")
+        subprocess.run([py, "-m", "pip", "download", "-q", "--no-deps", "--only-binary=:all:",
+                        "--python-version", v, "--platform", "manylinux2014_x86_64",
+                        "--platform", "manylinux_2_28_x86_64", "--platform", "linux_x86_64",
+                        "-d", str(d), *pins], check=True)
+        print(f"wheels for Python {v}: {len(pins)} packages", flush=True)
+    req.unlink()
 
 
 def main(argv=None):
