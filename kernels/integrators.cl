@@ -673,23 +673,58 @@ __kernel void ltc_loss(const global real_t *P, Tables TABLES, const global real_
 #define MS_UMASK(m) CAT(convert_int, W)(m)     /* a mask for select() on uint lanes */
 #endif
 
-/* The lanes `fin` that finished start their next walk (id + W); the others go to their next
- * event. */
-FN void ms_restart(MsWalk *s, const MsWalk fresh, maskN fin, uintN *id, uintN *event, uint end)
+/* A work-item's lanes over its block of walks [b L, min(b L + L, walks)) (walk_albedo,
+ * walk_eval): each lane's walk, its key (k.walk the walk's index) and event, and the first walk
+ * past the block. Lane l starts with walk b L + l. */
+typedef struct {
+    MsWalk s, fresh;
+    MsKey k;
+    uintN event;
+    uint end;
+} MsLanes;
+
+FN MsLanes ms_lanes(vec3 wo, uint point, uint block, uint block_len, uint walks, uint seed_lo,
+                    uint seed_hi)
 {
-    *id = select(*id, *id + (uintN)W, MS_UMASK(fin));
-    *event = select(*event + (uintN)1, (uintN)0, MS_UMASK(fin));
+    MsLanes l;
+    l.end = min(block * block_len + block_len, walks);
+    MsKey k = {(uintN)(block * block_len) + LANE_IDS, point, 0, seed_lo, seed_hi};
+    l.k = k;
+    l.event = (uintN)0;
+    l.fresh = ms_start(wo);
+    l.s = l.fresh;
+    l.s.alive = TO_MASK(k.walk < (uintN)l.end);
+    return l;
+}
+
+/* The lanes `fin` that finished start their next walk (index + W); the others go to their
+ * next event. */
+FN void ms_restart(MsLanes *l, maskN fin)
+{
+    MsWalk *s = &l->s;
+    const MsWalk fresh = l->fresh;
+    l->k.walk = select(l->k.walk, l->k.walk + (uintN)W, MS_UMASK(fin));
+    l->event = select(l->event + (uintN)1, (uintN)0, MS_UMASK(fin));
     s->w = select3(s->w, fresh.w, fin);
     s->h = sel(s->h, fresh.h, fin);
     s->weight = spec_sel(s->weight, fresh.weight, fin);
     s->order = sel(s->order, fresh.order, fin);
     s->inside = sel(s->inside, fresh.inside, fin);
     s->cut = sel(s->cut, fresh.cut, fin);
-    s->alive = sel(s->alive, TO_MASK(*id < (uintN)end), fin);
+    s->alive = sel(s->alive, TO_MASK(l->k.walk < (uintN)l->end), fin);
 }
 
 #define WALK_SUMS (4 * MS_ORDERS * CHANNELS)
 #define WALK_OUT (WALK_SUMS + 2)
+
+/* Work-item g's sums over its lanes: acc, then the walks cut and the hits. */
+FN void ms_store(global real_t *out, ulong g, const realN *acc, realN cut, realN hits)
+{
+    for (int j = 0; j < WALK_SUMS; ++j)
+        out[WALK_OUT * g + j] = HSUM(acc[j]);
+    out[WALK_OUT * g + WALK_SUMS] = HSUM(cut);
+    out[WALK_OUT * g + WALK_SUMS + 1] = HSUM(hits);
+}
 
 /* Work-item g: point point0 + g / launch_blocks (its parameters and wo), walks [b L, b L + L)
  * of it, b = block0 + g % launch_blocks and L = block_len (a multiple of W); walks at or past
@@ -715,36 +750,28 @@ __kernel void walk_albedo(const global real_t *P, Tables TABLES, const global re
     for (int j = 0; j < WALK_SUMS; ++j)
         acc[j] = 0;
     realN cut = 0, hits = 0;
-    uint end = min(block * block_len + block_len, walks);
-    uintN id = (uintN)(block * block_len) + LANE_IDS, event = (uintN)0;
-    const MsWalk fresh = ms_start(wo);
-    MsWalk s = fresh;
-    s.alive = TO_MASK(id < (uintN)end);
-    MsKey k = {id, point, 0, seed_lo, seed_hi};
-    while (MS_ANY(s.alive)) {
-        maskN was = s.alive;
-        k.walk = id;
-        maskN left = ms_step(&p, m, &s, k, event, max_order);
-        maskN over = was & s.cut;
+    MsLanes l = ms_lanes(wo, point, block, block_len, walks, seed_lo, seed_hi);
+    MsWalk *s = &l.s;
+    while (MS_ANY(s->alive)) {
+        maskN was = s->alive;
+        maskN left = ms_step(&p, m, s, l.k, l.event, max_order);
+        maskN over = was & s->cut;
         maskN fin = left | over;
-        realN cls = fmin(s.order, (realN)MS_ORDERS) - 1
-                    + sel((realN)0, (realN)MS_ORDERS, s.w.z < 0);
+        realN cls = fmin(s->order, (realN)MS_ORDERS) - 1
+                    + sel((realN)0, (realN)MS_ORDERS, s->w.z < 0);
         for (int j = 0; j < 2 * MS_ORDERS; ++j) {
             maskN here = left & (cls == (realN)j);
             for (int ch = 0; ch < CHANNELS; ++ch) {
-                realN v = sel((realN)0, s.weight.c[ch], here);
+                realN v = sel((realN)0, s->weight.c[ch], here);
                 acc[2 * (j * CHANNELS + ch)] += v;
                 acc[2 * (j * CHANNELS + ch) + 1] += v * v;
             }
         }
         cut += sel((realN)0, (realN)1, over);
-        hits += sel((realN)0, s.order, fin);
-        ms_restart(&s, fresh, fin, &id, &event, end);
+        hits += sel((realN)0, s->order, fin);
+        ms_restart(&l, fin);
     }
-    for (int j = 0; j < WALK_SUMS; ++j)
-        out[WALK_OUT * g + j] = HSUM(acc[j]);
-    out[WALK_OUT * g + WALK_SUMS] = HSUM(cut);
-    out[WALK_OUT * g + WALK_SUMS + 1] = HSUM(hits);
+    ms_store(out, g, acc, cut, hits);
 }
 
 #if !CAT(MODEL, _TRANSMITS)
@@ -774,24 +801,19 @@ __kernel void walk_eval(const global real_t *P, Tables TABLES, const global real
     for (int j = 0; j < MS_ORDERS * CHANNELS; ++j)
         cur[j] = 0;
     realN cut = 0, hits = 0;
-    uint end = min(block * block_len + block_len, walks);
-    uintN id = (uintN)(block * block_len) + LANE_IDS, event = (uintN)0;
-    const MsWalk fresh = ms_start(wo);
-    MsWalk s = fresh;
-    s.alive = TO_MASK(id < (uintN)end);
-    MsKey k = {id, point, 0, seed_lo, seed_hi};
-    while (MS_ANY(s.alive)) {
-        maskN was = s.alive;
-        k.walk = id;
-        rand4 u = ms_numbers(k, event);
-        maskN left = ms_advance(m, &s, u.u0, max_order);
-        spec c = ms_nee(&p, m, &s, wi, lam_i);
-        realN cls = fmin(s.order, (realN)MS_ORDERS) - 1;
+    MsLanes l = ms_lanes(wo, point, block, block_len, walks, seed_lo, seed_hi);
+    MsWalk *s = &l.s;
+    while (MS_ANY(s->alive)) {
+        maskN was = s->alive;
+        rand4 u = ms_numbers(l.k, l.event);
+        maskN left = ms_advance(m, s, u.u0, max_order);
+        spec c = ms_nee(&p, m, s, wi, lam_i);
+        realN cls = fmin(s->order, (realN)MS_ORDERS) - 1;
         for (int j = 0; j < MS_ORDERS; ++j)
             for (int ch = 0; ch < CHANNELS; ++ch)
                 cur[j * CHANNELS + ch] += sel((realN)0, c.c[ch], cls == (realN)j);
-        ms_scatter(&p, m, &s, u, k, event);
-        maskN over = was & s.cut;
+        ms_scatter(&p, m, s, u, l.k, l.event);
+        maskN over = was & s->cut;
         maskN fin = left | over;
         for (int ch = 0; ch < CHANNELS; ++ch) {
             realN total = 0;
@@ -805,13 +827,10 @@ __kernel void walk_eval(const global real_t *P, Tables TABLES, const global real
                 cur[j * CHANNELS + ch] = sel(cur[j * CHANNELS + ch], (realN)0, fin);
         }
         cut += sel((realN)0, (realN)1, over);
-        hits += sel((realN)0, s.order, fin);
-        ms_restart(&s, fresh, fin, &id, &event, end);
+        hits += sel((realN)0, s->order, fin);
+        ms_restart(&l, fin);
     }
-    for (int j = 0; j < WALK_SUMS; ++j)
-        out[WALK_OUT * g + j] = HSUM(acc[j]);
-    out[WALK_OUT * g + WALK_SUMS] = HSUM(cut);
-    out[WALK_OUT * g + WALK_SUMS + 1] = HSUM(hits);
+    ms_store(out, g, acc, cut, hits);
 }
 #endif
 
