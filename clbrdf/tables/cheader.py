@@ -75,6 +75,26 @@ def _array(ctype: str, name: str, values, fmt) -> str:
             + ",\n    ".join(lines) + "\n};\n")
 
 
+C_STORAGE = {"float32": "float", "float64": "float (rounded from float64)",
+             "float16": "unsigned short (IEEE half bits)",
+             "unorm16": "unsigned short (unorm16: value x 65535)"}
+
+
+def _stored(t, cname: str) -> str:
+    """The table's values as the C array the lookup reads: float for float32 and float64 tables
+    (float64 rounds to float), the 16-bit patterns for float16 and unorm16."""
+    if t.encoding in ("float32", "float64"):
+        return _array("float", cname, np.asarray(t.raw, np.float64), _f32)
+    if t.encoding == "float16":
+        return _array("unsigned short", cname, np.asarray(t.raw, np.float16).view(np.uint16),
+                      lambda v: f"{int(v)}u")
+    if t.encoding == "unorm16":
+        return _array("unsigned short", cname, np.asarray(t.raw, np.uint16),
+                      lambda v: f"{int(v)}u")
+    raise ValueError(f"table {t.name}: encoding {t.encoding!r} has no C storage: one of "
+                     f"{', '.join(C_STORAGE)}")
+
+
 def _index_expr(a: dict, var: str, axis_array: str) -> list:
     """C statements that set float xi_<var> to the clamped continuous index of coordinate var."""
     n = len(a["values"])
@@ -116,7 +136,7 @@ def _comment(t, cname: str, args: list) -> str:
     lines = [f"{cname}[{' x '.join(str(s) for s in t.shape)}"
              f"{' x ' + str(len(t.quantity)) if len(t.quantity) > 1 else ''}]: {q}"
              f"{' (interleaved channels, last)' if len(t.quantity) > 1 else ''}, stored as "
-             f"{t.encoding}" + (f", clamped to [{m['range'][0]:g}, {m['range'][1]:g}]"
+             f"{C_STORAGE.get(t.encoding, t.encoding)}" + (f", clamped to [{m['range'][0]:g}, {m['range'][1]:g}]"
                                 if m.get("range") else "")]
     for d, a in enumerate(t.axes):
         lines.append(f"  axis {d} ({'slowest' if d == 0 else 'fastest' if d == len(t.axes) - 1 else 'next'}): "
@@ -213,11 +233,7 @@ def c_header(tables: dict, *, prefix: str = "clbrdf", guard: str = "tables.h") -
         parts.append(_comment(t, cname, args))
         for a in t.axes:
             parts.append(_array("float", f"{cname}_{_c_ident(a['name'])}", a["values"], _f32))
-        if t.encoding == "float32":
-            parts.append(_array("float", cname, t.raw, _f32))
-        else:
-            bits = t.raw.view(np.uint16) if t.encoding == "float16" else t.raw
-            parts.append(_array("unsigned short", cname, bits, lambda v: f"{int(v)}u"))
+        parts.append(_stored(t, cname))
         parts.append("#ifdef CLBRDF_LUT_WITH_STDERR\n")
         parts.append(_array("float", f"{cname}_stderr", t.stderr, _f32))
         parts.append("#endif\n")
