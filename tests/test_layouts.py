@@ -1131,6 +1131,32 @@ def test_clamped_cells_count_every_part():
     assert want > 0 and [p["channels"] for p in parts] == [["B", "E"], ["cloth"]]
     assert t.meta["clamped_cells"] == want == sum(p["clamped_cells"] for p in parts)
     assert parts[1]["clamped_cells"] > 0
+    # never silent: per channel in the metadata, and each clamped cell's error covers the
+    # distance from the clamped value to the estimate (so z against the model stays honest)
+    c = t.meta["clamped"]
+    assert list(c) == ["cloth"] and c["cloth"]["cells"] == want
+    v0, s0 = unclamped.values[..., 2], unclamped.stderr[..., 2]
+    v, s = t.values[..., 2], t.stderr[..., 2]
+    hit = v0 > 1
+    assert np.isclose(c["cloth"]["max_excess"], (v0 - 1).max(), rtol=1e-3)
+    assert np.all(s[hit] >= np.abs(v0[hit] - v[hit]))
+    assert np.allclose(s[hit], np.hypot(s0[hit], v0[hit] - 1), rtol=2e-3)    # v0: float16
+    assert np.array_equal(s[~hit], s0[~hit])
+    # against the model: the quadrature at the cell the issue found (the true E 1.276)
+    m = clbrdf.Model("charlie", alpha=0.0228, visibility="ashikhmin")
+    true = float(clbrdf.albedo(m, mu=0.066, estimator="quadrature").albedo)
+    one = compute_table("charlie", "cloth", "E", ["alpha=0.0228", "mu=0.066"],
+                        fixed={"visibility": "ashikhmin"}, value_range=[0, 1], estimator="mis",
+                        samples=1 << 10, check_interpolation=False)
+    assert true > 1.2 and one.values.item() == 1.0
+    assert abs(one.values.item() - true) / one.stderr.item() < 1.5
+
+
+def test_cli_names_every_clamped_channel_and_its_estimator(tmp_path):
+    r = run_inprocess("table", "--layout", "filament", "-n", "64", "--out", tmp_path / "f.npz")
+    assert r.returncode == 0, r.stderr
+    assert re.search(r"dfg: \d+ cells of cloth clamped to \[0, 1\]", r.stdout), r.stdout
+    assert "brdf + qmc (cloth: mis + qmc)" in r.stdout
 
 
 @pytest.fixture(scope="module")

@@ -155,16 +155,36 @@ def _layout_table(args, outs) -> int:
     for name, t in tables.items():
         print(f"{name}: {', '.join(t.quantity)} {' x '.join(str(n) for n in t.shape)} "
               f"({t.encoding}), largest stderr {float(t.stderr.max()):.2g}")
+        for label, c in t.meta.get("clamped", {}).items():
+            lo, hi = t.meta["range"]
+            print(f"  {name}: {c['cells']} cells of {label} clamped to [{lo:g}, {hi:g}] as the "
+                  f"consumer does, by up to {c['max_excess']:.3g} (estimate "
+                  f"{c['model_value']:.4g} at {', '.join(f'{k}={v:.3g}' for k, v in c['at'].items())}"
+                  f"); their stderr includes the clamp")
     published = sorted({t.meta.get("published_samples") or 1 << 16 for t in tables.values()},
                        reverse=True)
     n = samples or " or ".join(map(str, published))
     how = (f"quadrature (tol {next(iter(tables.values())).meta['computed'].get('tol')})"
-           if est == "quadrature" else
-           f"{n} samples per cell, {est}{' + qmc' if args.qmc else ''}")
+           if est == "quadrature" else f"{n} samples per cell, {_estimators(tables)}")
     print(f"layout {args.layout}: {how}, {seconds:.1f} s; wrote {', '.join(map(str, written))}")
     if why:
         note(args, f"no --estimator: {why}")
     return 0
+
+
+def _estimators(tables) -> str:
+    """The estimators the tables' channels used: 'brdf + qmc', or 'brdf + qmc (cloth: mis +
+    qmc)' where a channel of another model used its own."""
+    def how(c):
+        return f"{c.get('estimator')}{' + qmc' if c.get('qmc') else ''}"
+    main, other = None, {}
+    for t in tables.values():
+        for p in t.meta.get("parts") or [{"channels": t.quantity, "computed": t.computed}]:
+            h = how(p.get("computed") or {})
+            main = main or h
+            if h != main:
+                other.setdefault(h, []).extend(p["channels"])
+    return main + "".join(f" ({', '.join(ch)}: {h})" for h, ch in other.items())
 
 
 def _axes(texts) -> dict:

@@ -178,9 +178,21 @@ def figure(table: Table):
             ax.fill_between(x, v[:, j] - 2 * s[:, j], v[:, j] + 2 * s[:, j], color=col,
                             alpha=0.25, lw=0)
         ax.set_xlabel(x_axis)
-        ax.set_title(f"{table.quantity[c]} (bands: $\\pm 2$ stderr)", fontsize=10)
+        title = f"{table.quantity[c]} (bands: $\\pm 2$ stderr)"
+        cl = table.meta.get("clamped", {}).get(table.quantity[c])
+        if cl:          # the consumer's clamp: cells at the range's bounds marked
+            lo, hi = table.meta["range"]
+            at = ((v[:, pick] <= lo) & (cl.get("below", 1) > 0)) | \
+                ((v[:, pick] >= hi) & (cl.get("above", 1) > 0))
+            xs = np.broadcast_to(np.asarray(x)[:, None], at.shape)
+            ax.plot(xs[at], v[:, pick][at], "x", color="red", ms=4,
+                    label=f"clamped to [{lo:g}, {hi:g}]")
+            title += f"\n{cl['cells']} cells clamped (x), by up to {cl['max_excess']:.3g}"
+            pad = 0.1 * (np.ptp(v[:, pick]) or 1)     # the clamp's error bands would hide the rest
+            ax.set_ylim(np.min(v[:, pick]) - pad, np.max(v[:, pick]) + pad)
+        ax.set_title(title, fontsize=10)
         ax.grid(alpha=0.3)
-        if label:
+        if label or cl:
             ax.legend(fontsize=7)
     return fig
 

@@ -157,7 +157,10 @@ def _comment(t, cname: str, args: list) -> str:
     if t.stderr.size:
         lines.append(f"  largest standard error {float(np.max(t.stderr)):.2g} (per cell: "
                      f"{cname}_stderr with CLBRDF_LUT_WITH_STDERR)")
-    if m.get("clamped_cells"):
+    for label, c in m.get("clamped", {}).items():
+        lines.append(f"  {c['cells']} cells of {label} clamped to the range, by up to "
+                     f"{c['max_excess']:.3g} (their stderr includes it)")
+    if m.get("clamped_cells") and not m.get("clamped"):      # files of older versions
         lines.append(f"  {m['clamped_cells']} cells clamped to the range")
     sig = ", ".join(f"float {a}" for a in args) + (", int channel" if len(t.quantity) > 1 else "")
     lines.append(f"  float {cname}_lookup({sig})")

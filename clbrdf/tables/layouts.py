@@ -198,16 +198,13 @@ def compute_table(model: str, name: str, quantity, axes: list, *, fixed=None, va
     labels = qs                 # the channels; an RGB model's one quantity Q: Q.R, Q.G, Q.B
     if values.ndim > len(names) + (len(qs) > 1):
         labels = [f"{qs[0]}.{c}" for c in "RGB"]
-    clamped = 0
-    if value_range is not None:
-        lo, hi = value_range
-        clamped = int(np.count_nonzero((values < lo) | (values > hi)))
-        values = np.clip(values, lo, hi)
-    raw = encode(values, encoding)
     specs = {a["name"]: a for a in meta["axis_specs"]}
     axes_out = [dict(specs[n], values=np.asarray(t[n], np.float64).tolist()) for n in names]
+    values, stderr, clamped = clamp_cells(values, stderr, value_range, labels, axes_out)
+    raw = encode(values, encoding)
     info = {"name": name, "quantity": labels, "encoding": encoding, "range": value_range,
-            "clamped_cells": clamped, "layout": layout, "computed": meta}
+            "clamped_cells": sum(c["cells"] for c in clamped.values()), "clamped": clamped,
+            "layout": layout, "computed": meta}
     table = Table(name=name, axes=axes_out, quantity=labels, raw=raw, stderr=stderr,
                   encoding=encoding, meta=info)
     if check_interpolation and any(len(a["values"]) > 1 for a in axes_out):
@@ -233,6 +230,33 @@ def compute_table(model: str, name: str, quantity, axes: list, *, fixed=None, va
             "how": "|lookup - direct estimate| halfway between neighbouring samples on every "
                    "axis (independent samples)"}
     return table
+
+
+def clamp_cells(values, stderr, value_range, labels, axes) -> tuple:
+    """(values clamped to the consumer's range, their standard errors with the clamp's shift
+    added in quadrature, {channel: {"cells", "above", "below", "max_excess", "at",
+    "model_value"}} for each channel that was clamped): a clamped cell's error covers the
+    distance to the estimate, so z against the model stays honest (the consumer's clamp is
+    kept: it is what the renderer loads)."""
+    if value_range is None:
+        return values, stderr, {}
+    lo, hi = value_range
+    v = np.asarray(values, np.float64)
+    c = np.clip(v, lo, hi)
+    shift = np.abs(v - c)
+    info = {}
+    chans = v.reshape(v.shape[:len(axes)] + (-1,))
+    sh = shift.reshape(chans.shape)
+    for k, label in enumerate(labels if chans.shape[-1] == len(labels) else labels[:1]):
+        n = int(np.count_nonzero(sh[..., k]))
+        if n:
+            i = np.unravel_index(int(np.argmax(sh[..., k])), sh.shape[:-1])
+            info[label] = {"cells": n, "above": int(np.count_nonzero(chans[..., k] > hi)),
+                           "below": int(np.count_nonzero(chans[..., k] < lo)),
+                           "max_excess": float(sh[..., k][i]),
+                           "at": {a["name"]: float(a["values"][j]) for a, j in zip(axes, i)},
+                           "model_value": float(chans[..., k][i])}
+    return c, np.hypot(stderr, shift), info
 
 
 def table_config(lay: dict, tab: dict) -> tuple:
@@ -293,7 +317,7 @@ def layout_table(lay: dict, tab: dict, *, layout: str | None = None, **kw):
         return parts[0][1]
     # interleave: the channels in the order given
     order = [q if isinstance(q, str) else q.get("label", q["quantity"]) for q in qs]
-    chans, errs, info = {}, {}, []
+    chans, errs, info, clamped = {}, {}, [], {}
     base = parts[0][1]
     for labels, t in parts:
         if t.shape != base.shape or any(
@@ -306,9 +330,11 @@ def layout_table(lay: dict, tab: dict, *, layout: str | None = None, **kw):
         info.append({"channels": labels, "computed": t.meta.get("computed"),
                      "interpolation": t.meta.get("interpolation"),
                      "clamped_cells": t.meta.get("clamped_cells", 0)})
+        clamped.update({(labels[0] if len(labels) == 1 else k): c
+                        for k, c in t.meta.get("clamped", {}).items()})
     interp = [i["interpolation"] for i in info if i["interpolation"]]
-    # every part's clamped cells (Filament's cloth channel clamps 448, its GGX channels none)
-    meta = dict(base.meta, quantity=order, parts=info,
+    # every part's clamped cells (Filament's cloth channel clamps 446, its GGX channels none)
+    meta = dict(base.meta, quantity=order, parts=info, clamped=clamped,
                 clamped_cells=sum(i["clamped_cells"] for i in info))
     if interp:
         meta["interpolation"] = max(interp, key=lambda i: i["max_error"])
