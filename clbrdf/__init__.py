@@ -19,10 +19,10 @@ from .tables.compute import TargetStderrWarning, albedo_table
 from .tables.files import save_tables
 from .tables.layouts import make_layout
 from .tables.ltc import fit_ltc, ltc_errors
-from .tables.table import Table, load_tables
+from .tables.table import Table, TableRangeWarning, load_tables
 from .version import __version__
 
-__all__ = ["AlbedoResult", "DeviceError", "MODELS", "Model", "ParameterError", "Table",
+__all__ = ["AlbedoResult", "DeviceError", "MODELS", "Model", "ParameterError", "Table", "TableRangeWarning",
            "TargetStderrWarning", "UselessEstimatorWarning", "WidthFallbackWarning",
            "__version__", "albedo", "albedo_avg", "albedo_table", "check", "fit_ltc", "fresnel_avg",
            "get_device", "get_include", "list_devices", "load_tables", "ltc_errors", "make_layout", "model",

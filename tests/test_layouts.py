@@ -821,7 +821,8 @@ def _float32_bound(tables, want):
 def _expected(tables, coords):
     out = []
     for name, t in tables.items():
-        v = t.lookup(*[np.float32(x).astype(np.float64) for x in coords[name]])
+        v = t.lookup(*[np.float32(x).astype(np.float64) for x in coords[name]],
+                     outside="clamp")           # the C lookup's clamp, tested beyond the axes
         v = v[..., None] if len(t.quantity) == 1 else v
         for c in range(len(t.quantity)):
             out.extend(v[:, c].tolist())
@@ -904,7 +905,8 @@ def test_header_runs_as_opencl_c(std, small_layouts, tmp_path):
             ob = cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes)
             prg.k(queue, (64,), None, ob, *bufs)
             cl.enqueue_copy(queue, out, ob)
-            want = t.lookup(*[np.float32(c).astype(np.float64) for c in coords]).reshape(-1)
+            want = t.lookup(*[np.float32(c).astype(np.float64) for c in coords],
+                             outside="clamp").reshape(-1)
             assert np.all(np.abs(out - want) <= _float32_bound({name: t}, want)), \
                 (layout, name, np.abs(out - want).max())
 
@@ -1094,6 +1096,21 @@ def test_cli_furnace_and_its_refusals(tmp_path):
     assert np.all(np.abs(np.array(g["kulla_conty"]) - 1) < 0.05), g["kulla_conty"]
     r = run_inprocess("furnace", tmp_path / "c.npz", "-n", "1024")
     assert r.returncode == 0 and "white furnace of the glass in c.npz" in r.stdout, r.stderr
+    # a plain table over alpha 0.05 .. 1: the default r = 0.1 (alpha 0.01) was read at alpha
+    # 0.05, a "gain" that came from the clamp; now it is left out, and said so
+    r = run_inprocess("table", "ggx", "--axis", "mu=0.02:1:16", "--axis", "alpha=0.05:1:20",
+                      "-n", "1024", "--out", tmp_path / "p.npz")
+    assert r.returncode == 0, r.stderr
+    r = run_inprocess("furnace", tmp_path / "p.npz", "-n", "4096", "--json")
+    f = json.loads(r.stdout)
+    assert r.returncode == 0 and f["left_out"] == {"r": [0.1]}, (r.stderr, f.get("left_out"))
+    assert np.min(f["r"]) == 0.25 and np.all(np.abs(np.array(f["turquin"]) - 1) < 0.04)
+    r = run_inprocess("furnace", tmp_path / "p.npz", "-n", "4096")
+    assert "r = 0.1 left out: outside the tables' range" in r.stdout
+    from clbrdf.studies.furnace import white_furnace
+    with pytest.raises(clbrdf.ParameterError, match=r"r=0.1 is outside table E: its alpha axis "
+                                                    r"covers \[0.05, 1\]"):
+        white_furnace(load_tables(tmp_path / "p.npz"), r=[0.1, 0.5], samples=64)
     save_tables({"X": compute_table("ggx", "X", "E", ["f0=0.1,0.5", "mu=0.2,0.9"],
                                     fixed={"fresnel": "schlick"}, samples=64,
                                     check_interpolation=False)}, tmp_path / "t.npz")
@@ -1172,11 +1189,45 @@ def test_lookup_clamps_below_a_sqrt_or_log_axis_and_names_nan(warped_table):
     t = warped_table
     first = t.values[0, 0]
     for mu, a in ((-0.5, 1e-5), (0.0, 0.0), (0.01, -1.0), (-np.inf, 1e-9)):
-        assert np.isclose(t.lookup(mu=mu, alpha=a), first, rtol=0, atol=1e-12), (mu, a)
-    assert np.isclose(t.lookup(mu=5.0, alpha=np.inf), t.values[-1, -1], rtol=0, atol=1e-12)
+        v = t.lookup(mu=mu, alpha=a, outside="clamp")
+        assert np.isclose(v, first, rtol=0, atol=1e-12), (mu, a)
+    assert np.isclose(t.lookup(mu=5.0, alpha=np.inf, outside="clamp"), t.values[-1, -1], rtol=0,
+                      atol=1e-12)
     for bad in ({"mu": np.nan, "alpha": 0.1}, {"mu": 0.5, "alpha": [0.1, np.nan]}):
         with pytest.raises(clbrdf.ParameterError, match="NaN"):
             t.lookup(**bad)
+
+
+def test_lookup_outside_the_table_warns_by_default_clamps_or_raises(warped_table):
+    """A coordinate outside an axis (mu = 5 is no direction) was clamped without a word: by
+    default a warning names the table, axis, value and range; outside='clamp' is the renderer's
+    quiet clamp, 'raise' refuses. Inside the range (the ends included) nothing is said, and a
+    texel-centred axis covers its start and stop, not only its outer centres."""
+    t = warped_table            # mu 0.04 .. 1 (sqrt), alpha 0.01 .. 1 (log)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        inside = t.lookup(mu=[0.04, 0.5, 1.0], alpha=[0.01, 0.3, 1.0])
+    with pytest.warns(clbrdf.TableRangeWarning,
+                      match=r"table W: mu=5 is outside the table's mu range \[0.04, 1\]"):
+        v = t.lookup(mu=5, alpha=0.5)
+    with pytest.warns(clbrdf.TableRangeWarning, match=r"alpha=50 .*\(1 of 3 coordinates\)"):
+        t.lookup(mu=0.5, alpha=[0.1, 0.2, 50])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert t.lookup(mu=5, alpha=0.5, outside="clamp") == v == t.lookup(mu=1, alpha=0.5)
+        assert np.array_equal(t.lookup(mu=[0.04, 0.5, 1.0], alpha=[0.01, 0.3, 1.0],
+                                       outside="raise"), inside)
+    with pytest.raises(clbrdf.ParameterError, match=r"alpha=50 is outside .* \[0.01, 1\]"):
+        t.lookup(mu=0.5, alpha=50, outside="raise")
+    with pytest.raises(clbrdf.ParameterError, match="outside='quiet' is not valid"):
+        t.lookup(mu=0.5, alpha=0.5, outside="quiet")
+    c = compute_table("ggx", "C", "E", ["mu=0:1:4:centres:min=0.01", "alpha=0.1,0.5"],
+                      samples=64, check_interpolation=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert np.allclose(c.lookup(mu=[0.0, 1.0], alpha=0.5), c.values[[0, -1], 1])
+    with pytest.warns(clbrdf.TableRangeWarning, match="alpha=0.05"):
+        c.lookup(mu=0.5, alpha=0.05)
 
 
 @pytest.mark.parametrize("content", [b"", b"garbage, not a zip file", "truncated", "other"])

@@ -57,13 +57,16 @@ def cmd_furnace(args) -> int:
         r = None            # glass tables only
     g = glass_furnace(tables, samples=args.samples, device=args.device) if glass else None
     if args.json:
-        d = {k: np.asarray(v).tolist() for k, v in (r or {}).items()}
+        d = {k: v if k == "left_out" else np.asarray(v).tolist() for k, v in (r or {}).items()}
         if g is not None:
             d["glass"] = {k: np.asarray(v).tolist() for k, v in g.items()}
         print(json.dumps(d))
         return 0
     if r is not None:
         _print_furnace(path, r, args.samples)
+        for k, v in r["left_out"].items():
+            print(f"  {k} = {', '.join(f'{x:g}' for x in v)} left out: outside the tables' "
+                  f"range (the furnace reads no table outside it)")
     if g is not None:
         _print_glass_furnace(path, g, args.samples)
     return 0

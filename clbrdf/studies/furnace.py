@@ -13,13 +13,13 @@ from ..tables.axes import MAPPED
 from ..tables.files import flat
 
 
-def _channel(t, label: str, coords: dict):
+def _channel(t, label: str, coords: dict, outside: str):
     """Quantity ``label`` of table t at coords, from its channel ``label`` or ``1-label``; None
     if t has neither."""
     q = list(t.quantity)
     for name, sign in ((label, 1), ("1-" + label, -1)):
         if name in q:
-            v = np.asarray(t.lookup(**coords))
+            v = np.asarray(t.lookup(**coords, outside=outside))
             v = v if len(q) == 1 else v[..., q.index(name)]
             return v if sign > 0 else 1 - v
     return None
@@ -31,17 +31,20 @@ def _reads(t, label: str) -> bool:
     return bool({label, "1-" + label} & q) or (label == "E" and {"A", "B"} <= q)
 
 
-def _read(t, label: str, **coords):
+def _read(t, label: str, outside: str = "raise", **coords):
     """Quantity ``label`` (E or E_avg) of table t: its channel, or A + B for E (the split
-    tables of three.js and MaterialX)."""
-    v = _channel(t, label, coords)
-    return v if v is not None else _channel(t, "A", coords) + _channel(t, "B", coords)
+    tables of three.js and MaterialX). ``outside``: as Table.lookup; the furnace's points are
+    inside the tables ("raise"), the Kulla-Conty integral over mu reads them as a renderer does
+    ("clamp": below a table's first mu, its edge)."""
+    v = _channel(t, label, coords, outside)
+    return v if v is not None else (_channel(t, "A", coords, outside)
+                                    + _channel(t, "B", coords, outside))
 
 
 def _find(tables: dict, directional: bool):
-    """(table, read(r=..., [mu=...])) of E over (mu, r) -- or over (mu, alpha), alpha = r^2 --
-    or of E_avg over r (alpha): a channel E or 1 - E, or A + B; r axes first. (None, None) if
-    there is none."""
+    """(table, read(r=..., [mu=...], [outside=...]), roughness axis) of E over (mu, r) -- or
+    over (mu, alpha), alpha = r^2 -- or of E_avg over r (alpha): a channel E or 1 - E, or
+    A + B; r axes first. (None, None, None) if there is none."""
     label = "E" if directional else "E_avg"
     for roughness in ("r", "alpha"):
         for t in tables.values():
@@ -50,11 +53,39 @@ def _find(tables: dict, directional: bool):
                 def read(r, t=t, roughness=roughness, **coords):
                     return _read(t, label, **{roughness: r if roughness == "r" else
                                               np.square(r)}, **coords)
-                return t, read
-    return None, None
+                return t, read, roughness
+    return None, None, None
 
 
-def white_furnace(tables: dict, *, r=(0.1, 0.25, 0.5, 0.75, 1.0), mu=(0.05, 0.2, 0.5, 1.0),
+DEFAULT_R = (0.1, 0.25, 0.5, 0.75, 1.0)
+DEFAULT_MU = (0.05, 0.2, 0.5, 1.0)
+
+
+def _inside(t, axis: str, values, to_axis, given: bool, what: str):
+    """(the values inside table t's axis ``axis``, {what: the values left out}); a value the
+    caller gave outside the table is a ParameterError (the furnace reads no table outside its
+    range), a default one is left out and reported."""
+    values = np.asarray(values, float).ravel()
+    d = t.axis_names.index(axis)
+    out = t.outside(d, to_axis(values))
+    if out.any() and given:
+        lo, hi = t.axis_range(d)
+        raise ParameterError(f"{what}={values[out][0]:g} is outside table {t.name}: its {axis} "
+                             f"axis covers [{lo:g}, {hi:g}]; the furnace reads no table outside "
+                             f"its range")
+    if out.all():
+        lo, hi = t.axis_range(d)
+        raise ParameterError(f"table {t.name}'s {axis} axis [{lo:g}, {hi:g}] holds none of the "
+                             f"furnace's {what} values {', '.join(f'{v:g}' for v in values)}: "
+                             f"give {what}=")
+    return values[~out], ({what: values[out].tolist()} if out.any() else {})
+
+
+def _r_to(roughness):
+    return (lambda r: r) if roughness == "r" else np.square
+
+
+def white_furnace(tables: dict, *, r=None, mu=None,
                   samples: int = 1 << 20, seed: int = 7, qmc: bool = True, **kw) -> dict:
     """The white furnace of GGX energy compensation with these tables (a layout's E over
     (mu, r) and, for Kulla-Conty, E_avg over r): the single-scattering albedo E_ss(mu, r)
@@ -67,13 +98,23 @@ def white_furnace(tables: dict, *, r=(0.1, 0.25, 0.5, 0.75, 1.0), mu=(0.05, 0.2,
       (1 - E_avg_tab), the integral by 64 Gauss-Legendre nodes of the table's lookup.
 
     Both are 1 for a perfect table; what is left is the table's error (interpolation, noise)
-    and E_avg's consistency with E. Returns arrays over (r, mu) and the stderr of E_ss."""
+    and E_avg's consistency with E. Returns arrays over (r, mu) and the stderr of E_ss, and
+    ``left_out``: the default points (r ``DEFAULT_R``, mu ``DEFAULT_MU``) outside the tables'
+    axes, which are not evaluated (a point given outside them is a ParameterError)."""
     tables = flat(tables)          # a table's average (E_avg) as a table of its own
-    t, read = _find(tables, True)
+    t, read, rough = _find(tables, True)
     if t is None:
         raise ParameterError("white_furnace needs a table with E (a channel E or 1-E, or A and "
                              "B) over the axes mu and r (or alpha)")
-    ta, read_avg = _find(tables, False)
+    ta, read_avg, rough_avg = _find(tables, False)
+    given = r is not None
+    r, left = _inside(t, rough, DEFAULT_R if r is None else r, _r_to(rough), given, "r")
+    if ta is not None:
+        r, more = _inside(ta, rough_avg, r, _r_to(rough_avg), given, "r")
+        left = {"r": left.get("r", []) + more.get("r", [])} if more else left
+    mu, more = _inside(t, "mu", DEFAULT_MU if mu is None else mu, lambda m: m, mu is not None,
+                       "mu")
+    left.update(more)
     comp = t.meta.get("computed", {})
     fixed = {k: v for k, v in comp.get("options", {}).items()}
     if "split" in comp:     # E of a split computation (and A + B) is E with F = 1
@@ -84,11 +125,12 @@ def white_furnace(tables: dict, *, r=(0.1, 0.25, 0.5, 0.75, 1.0), mu=(0.05, 0.2,
     d = albedo(m, MU, samples=samples, seed=seed, qmc=qmc, **kw)
     e_tab = read(mu=MU, r=R)
     out = {"r": R, "mu": MU, "E_ss": d.albedo, "E_ss_stderr": d.stderr, "E_table": e_tab,
-           "turquin": d.albedo / e_tab}
+           "turquin": d.albedo / e_tab, "left_out": left}
     if ta is not None:
         x, w = np.polynomial.legendre.leggauss(64)
         x, w = (x + 1) / 2, w / 2
-        integral = np.stack([np.sum(w * (1 - read(mu=x, r=np.full_like(x, rv))) * x) * 2
+        integral = np.stack([np.sum(w * (1 - read(mu=x, r=np.full_like(x, rv),
+                                                  outside="clamp")) * x) * 2
                              for rv in np.asarray(r, float)])[:, None]
         e_avg = read_avg(r=R)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -203,8 +245,8 @@ def glass_furnace(tables: dict, *, ior=(1.2, 1.5, 2.0), r=(0.25, 0.5, 1.0), mu=(
             J, ea = {}, {}
             for e in (n, 1 / n):
                 ea[e] = float(read_avg(e, rv))
-                integral = float(np.sum(w_gl * (1 - read(e, np.full_like(x_gl, rv), mu=x_gl))
-                                        * x_gl) * 2)
+                e_x = read(e, np.full_like(x_gl, rv), mu=x_gl, outside="clamp")
+                integral = float(np.sum(w_gl * (1 - e_x) * x_gl) * 2)
                 J[e] = integral / (1 - ea[e]) if 1 - ea[e] > 0 else 1.0
             x = kulla_conty_split(fa, fa_inv, ea[n], ea[1 / n], n)
             out["x"][i, j] = x

@@ -10,7 +10,9 @@ return them; ``save_tables`` and ``load_tables`` (clbrdf.tables.files) write and
 ``Table.lookup`` interpolates as the consumer does: multilinear in the continuous index of each
 axis, clamped to the table (nodes: index = u (N - 1); texel centres: index = u N - 1/2, the
 GPU's bilinear filter with clamp-to-edge), u the position of the coordinate on its axis
-(clbrdf.tables.axes.unwarp; a list of values: piecewise linear in the value).
+(clbrdf.tables.axes.unwarp; a list of values: piecewise linear in the value). A coordinate
+outside an axis' range warns (``TableRangeWarning``) unless ``outside="clamp"`` (quiet, as a
+renderer) or ``"raise"``.
 
 ``t["E"]``, ``t["E_stderr"]``, ``t["alpha"]``, ``t["E_avg"]``: the named arrays (``keys()``);
 ``t.to_xarray()``: an ``xarray.Dataset`` (``pip install 'clbrdf[xarray]'``).
@@ -21,6 +23,7 @@ import csv
 import glob
 import io
 import json
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -28,6 +31,13 @@ import numpy as np
 
 from ..models.spec import ParameterError
 from .axes import MAPPED, VIEW, unwarp
+
+OUTSIDE = ("warn", "clamp", "raise")     # Table.lookup outside the table's range
+
+
+class TableRangeWarning(UserWarning):
+    """A table was read outside its axes' range (Table.lookup): the value at the edge is used."""
+
 
 FORMAT = "clbrdf-tables/2"
 FORMATS_READ = ("clbrdf-tables/1", FORMAT)  # 1: the layout tables of clbrdf 0.1.0
@@ -124,6 +134,24 @@ class Table:
         return key in self.keys()
 
     # ---- lookup ----
+    def axis_range(self, axis: int) -> tuple:
+        """(lo, hi): the coordinates axis ``axis`` covers (its start and stop; a list of values:
+        their least and greatest). Between a texel-centred axis' ends and its outer centres the
+        lookup clamps to the edge texel as a GPU does: that is inside the table."""
+        a = self.axes[axis]
+        if a.get("spacing") == "list" or "count" not in a:
+            v = np.asarray(a["values"], dtype=np.float64)
+            return float(v.min()), float(v.max())
+        return float(min(a["start"], a["stop"])), float(max(a["start"], a["stop"]))
+
+    def outside(self, axis: int, x) -> np.ndarray:
+        """Where coordinate x lies outside the axis' range (``axis_range``; a relative 1e-12
+        of slack for rounding)."""
+        lo, hi = self.axis_range(axis)
+        slack = 1e-12 * max(abs(lo), abs(hi), 1.0)
+        x = np.asarray(x, dtype=np.float64)
+        return (x < lo - slack) | (x > hi + slack)
+
     def index(self, axis: int, x) -> np.ndarray:
         """The continuous, clamped index of coordinate x on axis ``axis``."""
         a = self.axes[axis]
@@ -145,9 +173,17 @@ class Table:
         i = u * n - 0.5 if a.get("placement") == "centres" else u * (n - 1)
         return np.clip(i, 0, n - 1)
 
-    def lookup(self, *coords, **named) -> np.ndarray:
+    def lookup(self, *coords, outside: str = "warn", **named) -> np.ndarray:
         """Interpolated values at coordinates given in axis order or by axis name (they
-        broadcast); the channels (several quantities) on a last axis."""
+        broadcast); the channels (several quantities) on a last axis.
+
+        A coordinate outside its axis' range (``axis_range``) is clamped to it, as a renderer's
+        lookup (and the C header's) does; ``outside`` says what else happens: "warn" (default)
+        a ``TableRangeWarning`` naming the table, axis, value and range; "clamp" nothing (the
+        renderer's behaviour); "raise" a ParameterError, before any value is computed."""
+        if outside not in OUTSIDE:
+            raise ParameterError(f"outside={outside!r} is not valid: choose one of "
+                                 f"{', '.join(OUTSIDE)}")
         names = self.axis_names
         if coords and named:
             raise ParameterError("give the coordinates in axis order or by name, not both")
@@ -161,6 +197,8 @@ class Table:
         if len(coords) != len(names):
             raise ParameterError(f"table {self.name} has {len(names)} axes ({', '.join(names)}), "
                                  f"got {len(coords)} coordinates")
+        if outside != "clamp":
+            self._check_range(coords, outside)
         idx = np.broadcast_arrays(*[self.index(d, c) for d, c in enumerate(coords)])
         data = self.values
         nc = len(self.quantity)
@@ -178,6 +216,25 @@ class Table:
                 w = w * (fr[d] if up else 1 - fr[d])
             out += w[..., None] * data[tuple(sel)]
         return out[..., 0] if nc == 1 else out
+
+    def _check_range(self, coords, outside: str) -> None:
+        for d, c in enumerate(coords):
+            c = np.asarray(c, dtype=np.float64)
+            out = self.outside(d, c)
+            if not out.any():
+                continue
+            lo, hi = self.axis_range(d)
+            far = c[out]
+            worst = float(far[np.argmax(np.maximum(lo - far, far - hi))])
+            name = self.axes[d]["name"]
+            msg = (f"table {self.name}: {name}={worst:g} is outside the table's {name} range "
+                   f"[{lo:g}, {hi:g}]" + (f" ({int(out.sum())} of {out.size} coordinates)"
+                                          if out.size > 1 else ""))
+            if outside == "raise":
+                raise ParameterError(msg)
+            warnings.warn(msg + f": the value at {name}={min(max(worst, lo), hi):g} is used "
+                          f"(clamped, as a renderer's lookup does; lookup(outside='clamp') "
+                          f"clamps quietly, 'raise' refuses)", TableRangeWarning, stacklevel=3)
 
     # ---- description ----
     def to_json(self) -> dict:
