@@ -422,3 +422,36 @@ def test_the_library_takes_a_stop_event_and_leaves_signals_alone(tmp_path):
     assert len(s.done()) < 4
     s = sweep(None, tmp_path / "s.zarr", resume=True)
     assert len(s.done()) == 4 and s.summary()["points"] == 4
+
+
+def test_a_damaged_chunk_is_named_and_resume_recomputes_it(tmp_path):
+    """One overwritten chunk of E went unnoticed: report wrote the same README, --resume said
+    every point was written; only reading E failed (Zstd decompression error). Each chunk file
+    carries zarr's crc32c, each chunk's values a SHA-256 in its ledger entry: open_sweep and
+    report name the chunk and its points, --resume recomputes it, bit for bit. Two kinds of
+    damage: garbage bytes (the file's checksum) and another chunk's valid file in its place
+    (the ledger's checksum of the values)."""
+    out = tmp_path / "s.zarr"
+    kw = dict(axes={"alpha": (0.05, 1, 12, "log"), "f0": (0, 0.5, 3)}, samples=256,
+              max_samples=256, chunk=8, fresnel="schlick")
+    ref = sweep("ggx", tmp_path / "ref.zarr", **kw)
+    sweep("ggx", out, **kw)
+    for damage, words in (("garbage", "cannot be read"),
+                          ("swap", "differs from the checksum written with it")):
+        chunk = out / "E" / "c" / "1" / "0"
+        assert chunk.is_file()
+        if damage == "garbage":
+            chunk.write_bytes(os.urandom(chunk.stat().st_size))
+        else:
+            chunk.write_bytes((out / "E" / "c" / "2" / "0").read_bytes())
+        with pytest.raises(clbrdf.ParameterError,
+                           match=rf"damaged: chunk 1 \(points 8 to 15\): array E {words}"):
+            open_sweep(out)
+        r = run_inprocess("report", out, "--out", tmp_path / "rep")
+        assert r.returncode != 0 and "chunk 1 (points 8 to 15)" in r.stderr, r.stderr
+        assert not (tmp_path / "rep" / "README.md").exists()
+        r = run_inprocess("sweep", "--out", out, "--resume", "-q")
+        assert r.returncode == 0, r.stderr
+        assert "chunk 1 (points 8 to 15) is damaged" in r.stderr, r.stderr
+        same_store(open_sweep(out), ref)
+    assert open_sweep(out, verify=False).done() == ref.done()

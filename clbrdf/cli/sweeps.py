@@ -79,7 +79,7 @@ def cmd_sweep(args) -> int:
                   command=" ".join(["clbrdf"] + [quote(a) for a in args.argv]), **kw)
     except (KeyboardInterrupt, Terminated):
         try:
-            s = open_sweep(args.out)
+            s = open_sweep(args.out, verify=False)
             done = sum(chunk_bounds(s.job, i)[1] - chunk_bounds(s.job, i)[0] for i in s.done())
             print(f"clbrdf sweep: stopped; {done} of {s.points} points are written to {args.out}; "
                   f"continue with --resume", file=sys.stderr)
@@ -131,7 +131,7 @@ def cmd_report(args) -> int:
         out = Path(args.out)
         if out.exists() and not out.is_dir():
             raise ParameterError(f"--out {args.out!r} is a file; give a directory")
-    summ = report(args.store, args.out)
+    summ = report(s, args.out)
     if args.json:
         summ.pop("files", None)
         print(json.dumps(summ))

@@ -236,9 +236,10 @@ def _ledger(s: Sweep) -> list[dict]:
 
 
 def report(path, out=None) -> dict:
-    """The summary of a store; with ``out`` also DIR/README.md and the PNGs. Returns the summary
-    with ``worst`` the single worst point, as ``clbrdf report --json`` prints it."""
-    s = Sweep(path)
+    """The summary of a store (a path, verified on opening, or an opened ``Sweep``); with
+    ``out`` also DIR/README.md and the PNGs. Returns the summary with ``worst`` the single
+    worst point, as ``clbrdf report --json`` prints it."""
+    s = path if isinstance(path, Sweep) else Sweep(path)
     many = s.summary(worst=WORST)
     worst = many["worst"] or []
     if isinstance(worst, dict):

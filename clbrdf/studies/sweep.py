@@ -48,14 +48,23 @@ computed it; zarr writes lock-free when writes align with chunks): ``params/<axi
 (``clbrdf_sweep``), and ``ledger/cNNNNNNNNN.json`` per completed chunk, written after its data.
 The ledger, not the chunk files, says what is done: zarr does not write chunks equal to the
 fill value, and a killed process can leave a partial chunk file.
+
+Stored data is checksummed twice: each chunk file by zarr's crc32c codec (after zstd), and each
+sweep chunk's values, as stored, by a SHA-256 per array in its ledger entry. ``open_sweep``
+(so ``clbrdf report``) and ``sweep(resume=True)`` read every completed chunk back against both
+(``damaged_chunks``): the first refuses a damaged store naming the chunk, its points and what is
+wrong; the second recomputes the damaged chunks. Stores of clbrdf <= 0.4 have neither checksum:
+they are verified as far as reading them back goes.
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import platform
 import threading
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -107,18 +116,22 @@ def _create(path: Path, job: dict, manifest: dict) -> None:
             import shutil
             shutil.rmtree(old, ignore_errors=True)
     tmp = path.parent / f".{path.name}.{os.getpid()}.creating"
+    from zarr.codecs import Crc32cCodec, ZstdCodec
     root = zarr.open_group(str(tmp), mode="w")
     root.attrs["clbrdf_sweep"] = manifest
     C = job["chunk"]
+    checked = [ZstdCodec(), Crc32cCodec()]         # a chunk file's checksum, verified on read
     for name, (shape, dtype, fill) in _array_specs(job).items():
         root.create_array(name, shape=shape, dtype=dtype, chunks=(C,) + shape[1:],
                           fill_value=fill, config={"write_empty_chunks": True},
+                          compressors=checked,
                           dimension_names=("point", "direction", "channel")[:len(shape)])
     for k in ("mu", "phi"):
-        root.create_array(f"directions/{k}", data=np.asarray(job["directions"][k]))
+        root.create_array(f"directions/{k}", data=np.asarray(job["directions"][k]),
+                          compressors=checked)
     w = job["directions"]["weight"]
     root.create_array("directions/weight", data=np.asarray(
-        w if w is not None else [np.nan] * len(job["directions"]["mu"])))
+        w if w is not None else [np.nan] * len(job["directions"]["mu"])), compressors=checked)
     (tmp / "ledger").mkdir()
     os.rename(tmp, path)
 
@@ -133,19 +146,73 @@ def done_chunks(path) -> set[int]:
     return {int(p.name[1:10]) for p in d.glob("c*.json") if len(p.name) == 15}
 
 
+def _digest(values: np.ndarray) -> str:
+    return hashlib.sha256(np.ascontiguousarray(values).tobytes()).hexdigest()
+
+
 def _write_chunk(root, path: Path, job: dict, index: int, arrays: dict, info: dict) -> None:
     i0, i1 = chunk_bounds(job, index)
+    sums = {}
     for k, v in arrays.items():
-        root[k][i0:i1] = v
-    entry = {"chunk": index, "points": [i0, i1], **info}
+        a = root[k]
+        stored = np.asarray(v, dtype=a.dtype)
+        a[i0:i1] = stored
+        sums[k] = _digest(stored)
+    entry = {"chunk": index, "points": [i0, i1], "sha256": sums, **info}
     led = _ledger_path(path, index)
     tmp = led.with_name(f".{led.name}.{os.getpid()}.{threading.get_ident()}.tmp")
     tmp.write_text(json.dumps(entry))
     os.replace(tmp, led)
 
 
+def damaged_chunks(root, path, job: dict, chunks=None) -> dict:
+    """{chunk index: what is wrong} over the completed chunks (or ``chunks``): every array of
+    the chunk read back (zarr checks each chunk file's crc32c) and compared with the SHA-256 its
+    ledger entry holds. One chunk in memory at a time."""
+    bad = {}
+    names = list(_array_specs(job))
+    for index in sorted(done_chunks(path) if chunks is None else chunks):
+        i0, i1 = chunk_bounds(job, index)
+        try:
+            entry = json.loads(_ledger_path(path, index).read_text())
+            sums = entry.get("sha256", {})
+        except (OSError, ValueError) as e:
+            bad[index] = f"its ledger entry is unreadable ({type(e).__name__}: {e})"
+            continue
+        for k in names:
+            try:
+                v = np.asarray(root[k][i0:i1])
+            except Exception as e:          # noqa: BLE001 - zarr, codecs, the file system
+                bad[index] = f"array {k} cannot be read ({type(e).__name__}: {e})"
+                break
+            if k in sums and _digest(v) != sums[k]:
+                bad[index] = f"array {k} differs from the checksum written with it"
+                break
+    return bad
+
+
+def damage_text(path, job: dict, bad: dict) -> str:
+    """One line per damaged chunk: its index, points and what is wrong."""
+    return "; ".join(f"chunk {i} (points {chunk_bounds(job, i)[0]} to "
+                     f"{chunk_bounds(job, i)[1] - 1}): {why}" for i, why in sorted(bad.items()))
+
+
+class DamagedStoreError(ParameterError):
+    """A sweep store whose data does not read back as written (``damaged_chunks``)."""
+
+    def __init__(self, path, job, bad: dict):
+        self.chunks = dict(bad)
+        super().__init__(f"sweep store {str(path)!r} is damaged: {damage_text(path, job, bad)}; "
+                         f"'clbrdf sweep {path} --resume' (sweep(resume=True)) recomputes the "
+                         f"damaged chunks")
+
+
 # ---------------------------------------------------------------------------------------------
 # running
+
+class DamagedChunkWarning(UserWarning):
+    """sweep(resume=True) found a damaged chunk and computes it again."""
+
 
 class _Stop:
     """Set by the caller's event, an exception in the calling thread (KeyboardInterrupt) or a
@@ -197,7 +264,7 @@ def sweep(model: str | None = None, out=None, *, resume: bool = False, device=No
         if not (path / "zarr.json").exists():
             raise ParameterError(f"resume=True: {str(path)!r} is not a sweep store (no "
                                  f"zarr.json); start it with resume=False")
-        old = open_sweep(path).manifest
+        old = open_sweep(path, verify=False).manifest
         if model is None:
             job = old["job"]
         else:
@@ -225,8 +292,15 @@ def sweep(model: str | None = None, out=None, *, resume: bool = False, device=No
     lock = lock_dir(path)       # one process per store: a second --resume redid every chunk
     try:
         import zarr
-        return _sweep_run(zarr.open_group(str(path), mode="r+"), path, job, client, device,
-                          progress, stop)
+        root = zarr.open_group(str(path), mode="r+")
+        if resume:              # a damaged chunk is not done: its ledger entry goes, it reruns
+            for index, why in damaged_chunks(root, path, job).items():
+                i0, i1 = chunk_bounds(job, index)
+                warnings.warn(f"sweep store {str(path)!r}: chunk {index} (points {i0} to "
+                              f"{i1 - 1}) is damaged ({why}): computing it again",
+                              DamagedChunkWarning, stacklevel=2)
+                _ledger_path(path, index).unlink()
+        return _sweep_run(root, path, job, client, device, progress, stop)
     finally:
         os.close(lock)
 
@@ -256,7 +330,7 @@ def _sweep_run(root, path, job, client, device, progress, event=None):
             _run_local(root, path, job, resolve_devices(device), todo, stop, bar)
     finally:
         bar.close()
-    return open_sweep(path)
+    return open_sweep(path, verify=False)   # verified before a resume; new chunks carry sums
 
 
 def _run_local(root, path, job, devices, todo, stop, bar):
@@ -290,7 +364,7 @@ class Sweep:
     """An opened sweep store: ``s["E_max"]`` and the other arrays (zarr, sliced into NumPy),
     ``s.job``, ``s.manifest``, ``s.directions``, ``s.complete``, ``s.summary()``."""
 
-    def __init__(self, path):
+    def __init__(self, path, verify: bool = True):
         import zarr
         self.path = Path(path)
         if not (self.path / "zarr.json").exists():
@@ -300,6 +374,15 @@ class Sweep:
         if not self.manifest:
             raise ParameterError(f"{str(self.path)!r} is a zarr store but not a clbrdf sweep")
         self.job = self.manifest["job"]
+        if verify:
+            self.verify()
+
+    def verify(self) -> None:
+        """Read every completed chunk back against its checksums; a damaged one raises
+        ``DamagedStoreError`` naming it (``damaged_chunks``)."""
+        bad = damaged_chunks(self.root, self.path, self.job)
+        if bad:
+            raise DamagedStoreError(self.path, self.job, bad)
 
     def __getitem__(self, name):
         """An array of the store by name (``s["E_max"]``, ``s["params/alpha"]``); slice it into
@@ -395,6 +478,8 @@ class Sweep:
         return out
 
 
-def open_sweep(path) -> Sweep:
-    """Open a sweep store written by ``clbrdf sweep`` / ``clbrdf.sweep``."""
-    return Sweep(path)
+def open_sweep(path, verify: bool = True) -> Sweep:
+    """Open a sweep store written by ``clbrdf sweep`` / ``clbrdf.sweep``, every completed chunk
+    read back against its checksums first (``verify=False``: not; a damaged store raises
+    ``DamagedStoreError``, which names the chunks)."""
+    return Sweep(path, verify=verify)
