@@ -369,3 +369,26 @@ def test_channels_param_makes_an_rgb_model(tmp_path):
     r = run_inprocess("eval", "ggx", "-p", "channels=1", "-p", "kd=0.1,0.2,0.3", "--wi", "0,0,1",
                       "--wo", "0,0,1")
     assert r.returncode == 2 and "channels=1" in r.stderr, r.stderr
+
+
+def test_progress_bars_only_on_a_terminal(monkeypatch):
+    """Progress bars went into piped logs: the commands ask for one only when stderr is a
+    terminal."""
+    import io
+    import clbrdf.runtime.albedo as ra
+    asked = []
+    real = ra.progress_bar
+    monkeypatch.setattr(ra, "progress_bar", lambda total, enabled, **k: (
+        asked.append(enabled), real(total, False, **k))[1])
+    argv = ["table", "ggx", "--axis", "mu=0.5,1", "-n", "256", "--out"]
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+    import tempfile
+    with tempfile.TemporaryDirectory() as d:
+        assert run_inprocess(*argv, f"{d}/a.npz").returncode == 0      # stderr: a StringIO
+        monkeypatch.setattr("sys.stderr", Tty())
+        from clbrdf.cli.common import bars
+        assert bars()
+    assert asked and not any(asked)

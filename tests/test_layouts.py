@@ -1242,10 +1242,30 @@ def test_load_of_garbage_empty_or_truncated_files_is_a_clear_error(content, warp
         np.savez(path, x=np.arange(3))
     else:
         path.write_bytes(content)
-    with pytest.raises(clbrdf.ParameterError, match="t.npz"):
+    with pytest.raises(clbrdf.ParameterError, match="t.npz") as e:
         Table.load(path)
+    assert "pickle" not in str(e.value)         # NumPy's advice for a text file: never ours
     with pytest.raises(clbrdf.ParameterError, match="does not exist"):
         Table.load(tmp_path / "missing.npz")
+
+
+def test_a_file_whose_arrays_disagree_with_its_metadata_is_refused(warped_table, tmp_path):
+    """clbrdf furnace on such a file ended in an IndexError (rc 1): the reader now checks every
+    array against the metadata and names the table and the array; the CLI exits 2."""
+    path = tmp_path / "t.npz"
+    save_tables({"E": warped_table}, path)
+    with np.load(path) as z:
+        arrays = dict(z)
+    arrays["E"] = arrays["E"][:3]
+    np.savez(path, **arrays)
+    with pytest.raises(clbrdf.ParameterError, match=r"t.npz.*table E: its values array has shape "
+                                                    r"\(3, 4\), .* need \(5, 4\)"):
+        Table.load(path)
+    r = run_inprocess("furnace", path)
+    assert r.returncode == 2 and "its values array has shape (3, 4)" in r.stderr, r.stderr
+    (tmp_path / "text.npz").write_text("a text file with an .npz name\n")
+    r = run_inprocess("furnace", tmp_path / "text.npz")
+    assert r.returncode == 2 and "not a zip archive" in r.stderr and "pickle" not in r.stderr
 
 
 @pytest.mark.parametrize("name", ["ue5", "threejs", "materialx", "filament",

@@ -209,3 +209,18 @@ def test_stochastic_evaluation_refuses_what_it_does_not_do():
         clbrdf.walk_eval(g, _wo(0.5, 0), _wo(0.5, 1))
     with pytest.raises(clbrdf.ParameterError, match="wi"):
         clbrdf.walk_eval("ggx", _wo(0.5, 0), [0.0, 0.0, -1.0])
+
+
+def test_reflected_and_transmitted_are_relative_to_wo():
+    """reflected meant 'left above': from inside (mu = -0.3, eta 2.4) it read 0.05, which was
+    the transmission. Now E_R is the walks that leave on wo's side and E_T the others; above
+    and below keep the sides. Beyond the critical angle (mu 0.3 < 0.909 inside eta 2.4) a
+    smooth-ish interface reflects almost all."""
+    g = clbrdf.model("ggx_dielectric", alpha=0.05, eta=2.4, masking="beta", precision="single")
+    r = clbrdf.walk_albedo(g, [0.3, -0.3], walks=1 << 16, seed=5)
+    assert np.array_equal(r.reflected, [r.above[0], r.below[1]])
+    assert np.array_equal(r.transmitted, [r.below[0], r.above[1]])
+    assert r.reflected[1] > 0.9 and r.transmitted[1] < 0.1
+    m = clbrdf.model("ggx_dielectric", alpha=0.05, eta=2.4, lobes="reflection")
+    e_r = clbrdf.albedo(m, mu=0.3, estimator="quadrature").albedo
+    assert r.reflected[0] == pytest.approx(e_r, abs=0.01)      # single scattering dominates

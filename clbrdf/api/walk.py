@@ -48,15 +48,17 @@ def check_walk_model(m: Model) -> None:
 class WalkResult:
     """``albedo`` E(wo) of the multiple-scattering BSDF and its ``stderr``; ``orders`` the part
     of E of the walks that left after 1, 2, 3 or more hits (trailing axis of 3, before the
-    channels), with ``orders_stderr``; ``reflected`` and ``transmitted`` E_R, E_T (the walks that
-    leave above, below); ``cut`` the fraction of walks cut at ``max_order`` (energy lost to
-    the bound), ``mean_hits`` the mean number of hits per walk."""
+    channels), with ``orders_stderr``; ``reflected`` and ``transmitted`` E_R, E_T: the walks
+    that leave on wo's side and on the other (from inside, mu < 0, reflection is below);
+    ``above`` and ``below`` the same by side of the surface; ``cut`` the fraction of walks cut
+    at ``max_order`` (energy lost to the bound), ``mean_hits`` the mean number of hits per
+    walk."""
     albedo: np.ndarray
     stderr: np.ndarray
     orders: np.ndarray
     orders_stderr: np.ndarray
-    reflected: np.ndarray
-    transmitted: np.ndarray
+    above: np.ndarray
+    below: np.ndarray
     cut: np.ndarray
     mean_hits: np.ndarray
     mu: np.ndarray
@@ -66,6 +68,22 @@ class WalkResult:
     precision: str
     seconds: float
     model: dict
+
+    def _wo_side(self, same: bool) -> np.ndarray:
+        inside = np.asarray(self.mu) < 0
+        if np.ndim(self.above) > np.ndim(inside):      # channels last
+            inside = inside[..., None]
+        return np.where(inside == same, self.below, self.above)
+
+    @property
+    def reflected(self) -> np.ndarray:
+        """E_R: the walks that leave on wo's side (above for mu > 0, below from inside)."""
+        return self._wo_side(True)
+
+    @property
+    def transmitted(self) -> np.ndarray:
+        """E_T: the walks that leave on the side opposite wo's."""
+        return self._wo_side(False)
 
 
 def _mean_err(s, q, n):

@@ -306,3 +306,11 @@ def sampling_args(p):
 
 # sweeps stopped by a signal (their stores written), for entry()'s exit
 STOPPED: list = []
+
+
+def bars() -> bool:
+    """Progress bars only on a terminal: a piped or redirected stderr (a log) gets none."""
+    try:
+        return sys.stderr.isatty()
+    except (AttributeError, ValueError):
+        return False

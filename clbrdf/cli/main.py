@@ -74,6 +74,8 @@ def main(argv=None) -> int:
     args.argv = argv
     with warnings.catch_warnings():     # restored for callers of main() in the same process
         warnings.filterwarnings("ignore", message=r".*has been retrieved more than once")
+        # PoCL's remarks on a build that succeeded (pyopencl.CompilerWarning): not the user's
+        warnings.filterwarnings("ignore", message=r"Non-empty compiler output encountered")
         warnings.showwarning = lambda message, category, *a, **k: print(
             f"clbrdf {args.command}: warning: {clean(message)}", file=sys.stderr)
         return _run(args)

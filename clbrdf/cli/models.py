@@ -25,6 +25,7 @@ from ..runtime.device import (
 from ..studies.check import check
 from ..version import __version__
 from .common import (
+    bars,
     EXIT_CHECK_FAILED,
     EXIT_DEVICE,
     Once,
@@ -218,7 +219,7 @@ def cmd_albedo(args) -> int:
     m = model_for(spec.name, args, params)
     why = choose_estimator(args)
     r = albedo(m, mu, phi, estimator=args.estimator, samples=args.samples, seed=args.seed,
-               qmc=args.qmc, progress=True, **quad_args(args))
+               qmc=args.qmc, progress=bars(), **quad_args(args))
     if args.json:
         out = r.to_json()
         out.update({"estimator": args.estimator, "qmc": args.qmc, "phi": phi,

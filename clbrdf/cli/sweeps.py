@@ -23,6 +23,7 @@ from ..studies.sweepjob import (
     make_job,
 )
 from .common import (
+    bars,
     DEVICE_HELP,
     STOPPED,
     Terminated,
@@ -75,7 +76,7 @@ def cmd_sweep(args) -> int:
     t0 = time.perf_counter()
     try:
         s = sweep(spec.name if args.model else None, args.out, resume=args.resume,
-                  device=devices, client=client, progress=not args.quiet,
+                  device=devices, client=client, progress=not args.quiet and bars(),
                   command=" ".join(["clbrdf"] + [quote(a) for a in args.argv]), **kw)
     except (KeyboardInterrupt, Terminated):
         try:

@@ -26,6 +26,7 @@ from ..tables.ltc import FORMS as LTC_FORMS, fit_ltc
 from ..tables.ltc_layouts import check_ltc_out, ltc_layout, ltc_layouts, save_ltc
 from ..tables.table import DIRECTION_AXES, load_tables
 from .common import (
+    bars,
     Terminated,
     c_name,
     choose_estimator,
@@ -151,7 +152,7 @@ def _layout_table(args, outs) -> int:
                              estimator=None if why and est != "quadrature" else est,
                              seed=args.seed,
                              qmc=args.qmc, precision=args.precision, device=args.device,
-                             width=args.width, progress=True, command=no_resume(cmd),
+                             width=args.width, progress=bars(), command=no_resume(cmd),
                              **quad_args(args), **target_args(args))
         seconds = time.perf_counter() - t0
         written = save_tables(tables, outs, prefix=c_name(args.layout))
@@ -228,7 +229,7 @@ def cmd_table(args) -> int:
         table = albedo_table(spec.name, axes, samples=args.samples,
                              estimator=args.estimator, seed=args.seed, qmc=args.qmc,
                              precision=args.precision, device=args.device, width=args.width,
-                             progress=True, command=cmd, **quad_args(args),
+                             progress=bars(), command=cmd, **quad_args(args),
                              **target_args(args), **fixed)
         seconds = time.perf_counter() - t0
         written = save_tables(table, outs, prefix=c_name(spec.name))

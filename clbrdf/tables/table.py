@@ -342,11 +342,13 @@ def _tables_from_json(meta: dict, array) -> dict:
     for name, m in meta["tables"].items():
         axes = [dict(a, values=np.asarray(array(f"{name}.axis.{a['name']}"), np.float64).tolist())
                 for a in m["axes"]]
-        out[name] = Table(name=name, axes=axes, quantity=m["quantity"], raw=array(name),
-                          stderr=array(f"{name}.stderr"), encoding=m["encoding"],
-                          samples=array(f"{name}.samples") if m.get("samples") else None,
-                          meta={k: v for k, v in m.items() if k not in (
-                              "axes", "shape", "stderr_max", "samples", "average")})
+        t = Table(name=name, axes=axes, quantity=m["quantity"], raw=array(name),
+                  stderr=array(f"{name}.stderr"), encoding=m["encoding"],
+                  samples=array(f"{name}.samples") if m.get("samples") else None,
+                  meta={k: v for k, v in m.items() if k not in (
+                      "axes", "shape", "stderr_max", "samples", "average")})
+        _check_shapes(t, m)
+        out[name] = t
     for name, t in list(out.items()):
         of = t.meta.get("average_of")
         if of in out:
@@ -354,7 +356,31 @@ def _tables_from_json(meta: dict, array) -> dict:
     return out
 
 
+def _check_shapes(t: Table, m: dict) -> None:
+    """Every stored array against the table's metadata, before any use: a file whose arrays
+    disagree with it is refused naming the table and the array."""
+    want = tuple(m.get("shape", t.shape))
+    if tuple(t.shape) != want:
+        raise ParameterError(f"table {t.name}: its axes have {t.shape} values, its metadata says "
+                             f"{want}")
+    full = want + ((len(t.quantity),) if len(t.quantity) > 1 else ())
+    for what, a in (("values", t.raw), ("stderr", t.stderr)):
+        if np.shape(a) != full:
+            raise ParameterError(f"table {t.name}: its {what} array has shape {np.shape(a)}, its "
+                                 f"axes and quantities ({', '.join(t.quantity)}) need {full}")
+    if t.samples is not None and np.shape(t.samples) != want:
+        raise ParameterError(f"table {t.name}: its samples array has shape {np.shape(t.samples)}, "
+                             f"its axes need {want}")
+    if t.encoding not in ENCODINGS:
+        raise ParameterError(f"table {t.name}: encoding {t.encoding!r} is not one of "
+                             f"{', '.join(ENCODINGS)}")
+
+
 def _load_npz(path) -> dict:
+    with open(path, "rb") as f:
+        if f.read(4) != b"PK\x03\x04":   # an .npz is a zip archive; NumPy would try a pickle
+            raise ParameterError(f"{str(path)!r} is not a clbrdf table file: not a zip archive "
+                                 f"(an .npz is one)")
     with np.load(path, allow_pickle=False) as z:
         meta = json.loads(str(z["metadata"]))
         if isinstance(meta, dict) and meta.get("format") in FORMATS_READ:
@@ -452,8 +478,10 @@ def load_tables(path) -> dict:
         raise ParameterError(f"path={str(path)!r} does not exist or is not a file")
     try:
         tables = readers[suffix](path)
-    except ParameterError:
-        raise
+    except ParameterError as e:
+        if str(path) in str(e):
+            raise
+        raise ParameterError(f"{str(path)!r}: {e}") from None
     except Exception as e:      # empty, truncated or foreign files: zipfile, OpenEXR, JSON, keys
         raise ParameterError(f"{str(path)!r} is not a readable clbrdf table file "
                              f"({type(e).__name__}: {e})") from None
