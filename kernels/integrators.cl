@@ -399,7 +399,8 @@ __kernel void albedo_blocks(const global real_t *P, Tables TABLES, const global 
  * j L ^ gray(t), t = 0 .. L - 1, are its aligned range in Gray-code order (the same points), so
  * that one XOR per dimension (column ctz(t) of the generator matrix) steps to the next point.
  * Samples at or past `samples` are left out. Per lane and channel the block writes K, D, Q (as
- * albedo_blocks) at out[((CHANNELS g + c) 3 + 0, 1, 2) W + l]. */
+ * albedo_blocks) and the least and greatest weight drawn at out[((CHANNELS g + c) 5 + 0 .. 4)
+ * W + l]. */
 __kernel void albedo_qmc(const global real_t *P, Tables TABLES, const global real_t *WO, const ulong npoints,
                          const ulong point0, const uint block0, const uint launch_blocks,
                          const uint samples, const uint seed_lo, const uint seed_hi,
@@ -421,9 +422,12 @@ __kernel void albedo_qmc(const global real_t *P, Tables TABLES, const global rea
             xd ^= SOBOL_VR[d][31 - clz(b & (0u - b))];
         x[d] = (uintN)xd;
     }
-    realN sum[CHANNELS], sum2[CHANNELS], shift[CHANNELS];
-    for (int c = 0; c < CHANNELS; ++c)
+    realN sum[CHANNELS], sum2[CHANNELS], shift[CHANNELS], lo[CHANNELS], hi[CHANNELS];
+    for (int c = 0; c < CHANNELS; ++c) {
         sum[c] = sum2[c] = 0;
+        lo[c] = (realN)INFINITY;               /* the least and greatest weight drawn: the */
+        hi[c] = -(realN)INFINITY;              /* unseen-event allowance's evidence (api/albedo.py) */
+    }
     for (uint t = 0; t < block_len; ++t) {
         if (t > 0) {
             uint j = 31 - clz(t & (0u - t));                  /* ctz(t): gray(t) ^ gray(t - 1) */
@@ -442,13 +446,17 @@ __kernel void albedo_qmc(const global real_t *P, Tables TABLES, const global rea
             realN v = sel((realN)0, e.c[ch] - shift[ch], m);
             sum[ch] += v;
             sum2[ch] += v * v;
+            lo[ch] = fmin(lo[ch], sel((realN)INFINITY, e.c[ch], m));
+            hi[ch] = fmax(hi[ch], sel(-(realN)INFINITY, e.c[ch], m));
         }
     }
     for (int ch = 0; ch < CHANNELS; ++ch) {
-        global real_t *o = out + (CHANNELS * g + ch) * 3 * W;
+        global real_t *o = out + (CHANNELS * g + ch) * 5 * W;
         VSTORE(shift[ch], o);
         VSTORE(sum[ch], o + W);
         VSTORE(sum2[ch], o + 2 * W);
+        VSTORE(lo[ch], o + 3 * W);
+        VSTORE(hi[ch], o + 4 * W);
     }
 }
 

@@ -49,7 +49,7 @@ def main():
             lines += old[name]
             continue
         t0 = time.perf_counter()
-        tables = make_layout(name, qmc=True)
+        tables = make_layout(name, qmc=True, match_published=True)
         sec = time.perf_counter() - t0
         lines += [f"## `{name}`: {lay['consumer']}", "", f"Source: {lay['source']}.", "",
                   md_text(lay.get("notes", "")), "",

@@ -1342,3 +1342,41 @@ def test_eevee_split_sum_with_the_f82_channel():
         split = f0 * got[0] + got[1] - a * got[2]
         sd = np.sqrt((f0 * s[0]) ** 2 + s[1] ** 2 + (a * s[2]) ** 2)
         assert abs(split - e82) <= zb * sd + err + 1e-6, (i, j, split, e82, sd)
+
+
+def test_layout_defaults_target_the_consumers_shipped_error():
+    """Cycles' default was its published 2^23 samples a cell (600 to 900 s). Its shipped GGX
+    tables are within 9.7e-7 of the quadrature and its glass tables agree with a run refined to
+    3e-5: the default now makes the GGX tables by the quadrature (error <= 1e-6) and refines the
+    others with Sobol points from 2^12 samples to a standard error of 3e-5, at most the
+    published count; --match-published and -n keep counts; a layout that states no target keeps
+    its published count. The plan is stated in each table's metadata (``how``)."""
+    from clbrdf.tables.layouts import START_SAMPLES, table_plan
+    lay = get_layout("cycles")
+    tabs = {t["name"]: t for t in lay["tables"]}
+    p = table_plan(lay, tabs["table_ggx_E"])
+    assert p["estimator"] == "quadrature" and "9.7e-7" in p["basis"]
+    p = table_plan(lay, tabs["table_ggx_glass_E"])
+    assert (p["samples"], p["target_stderr"], p["max_samples"]) == (START_SAMPLES, 3e-5, 1 << 23)
+    p = table_plan(lay, tabs["table_ggx_gen_schlick_s"])
+    assert p["max_samples"] == 1 << 20              # its own published count
+    for kw, n in (({"match_published": True}, 1 << 23), ({"samples": 512}, 512)):
+        p = table_plan(lay, tabs["table_ggx_E"], **kw)
+        assert p["samples"] == n and p["estimator"] is None and p["target_stderr"] is None
+    p = table_plan(lay, tabs["table_ggx_glass_E"], target_stderr=1e-4)
+    assert p["target_stderr"] == 1e-4 and p["samples"] == START_SAMPLES
+    ue5 = get_layout("ue5")
+    p = table_plan(ue5, ue5["tables"][0])
+    assert p["samples"] == ue5["samples"] and p["target_stderr"] is None
+    t = make_layout("cycles", only=["table_ggx_Eavg", "table_ggx_glass_Eavg"],
+                    check_interpolation=False)
+    assert t["table_ggx_Eavg"].computed["estimator"] == "quadrature"
+    assert t["table_ggx_Eavg"].stderr.max() <= 1e-6
+    assert t["table_ggx_glass_Eavg"].stderr.max() <= 1.05 * 3e-5    # a clamp at 1 adds its shift
+    assert t["table_ggx_glass_Eavg"].meta["target_stderr"] == 3e-5
+    assert "refined to a standard error of 3e-05" in t["table_ggx_glass_Eavg"].meta["how"]
+    shipped = np.array([float(r.split(",")[-1]) for r in rows("cycles_ggx_Eavg.csv")])
+    assert np.abs(t["table_ggx_Eavg"].values - shipped)[1:].max() < 2e-6     # r = 0: 1e-8
+    r = run_inprocess("table", "--layout", "cycles", "-n", "64", "--match-published",
+                      "--out", "x.h")
+    assert r.returncode == 2 and "--match-published" in r.stderr

@@ -133,9 +133,9 @@ def albedo(m: Model | str, mu, phi=0.0, *, estimator: str = "brdf", samples: int
                             estimator, int(evals.max(initial=0)), False, 0, m.precision, seconds,
                             m.describe(), tol=tol, evaluations=evals.reshape(shape))
     warn_if_useless(m, np.broadcast_to(mu, shape), estimator)
-    est, err, plan, seconds = runner()(m, shape, wo, estimator=estimator, samples=samples,
-                                  seed=seed, qmc=qmc, progress=progress)
-    scale = weight_scale(m, shape, wo, estimator, est, qmc)
+    est, err, plan, seconds, seen = runner()(m, shape, wo, estimator=estimator, samples=samples,
+                                             seed=seed, qmc=qmc, progress=progress)
+    scale = weight_scale(m, shape, wo, estimator, est, qmc, seen=seen, sampling=err)
     honest = reported_error(err, unseen(scale, plan.samples), rounding_floor(m.precision, est))
     return AlbedoResult(est.reshape(cshape), honest.reshape(cshape), np.broadcast_to(mu, shape),
                         estimator, plan.samples, qmc, int(seed), m.precision, seconds,
@@ -173,7 +173,8 @@ def unseen(scale, n, alpha: float = UNSEEN_ALPHA):
     return math.log(1 / alpha) * np.asarray(scale, dtype=np.float64) / np.asarray(n, np.float64)
 
 
-def weight_scale(m: Model, shape, wo_rows, estimator: str, est=None, qmc: bool = False):
+def weight_scale(m: Model, shape, wo_rows, estimator: str, est=None, qmc: bool = False,
+                 seen=None, sampling=None):
     """W of ``unseen`` for each point of ``shape`` (points, channels): the largest weight of
     one sample of the estimator over 108 deterministic probes, the same for every point: the
     model's sampler at a grid of numbers that includes the edges of its domain (its lobe's peak
@@ -183,11 +184,38 @@ def weight_scale(m: Model, shape, wo_rows, estimator: str, est=None, qmc: bool =
     |weight - E| where a missed event has weight 0 as well as where it has a large one. W = 0
     where every probe gives the same weight to within the rounding floor (``rounding_floor``,
     already in the reported error): the estimator is exact there (Lambert with cosine or brdf
-    sampling)."""
+    sampling).
+
+    ``seen`` (QMC: the least and greatest weight each scramble drew, and the standard error
+    the samples would have as independent ones): W is then the scale of what the samples may
+    have missed given what they drew. A missed region of weight w moves the estimate by
+    p |E - w|: weights are >= 0, so the low side's scale is E times the share of scrambles that
+    drew no weight of 0 (the least any can be); the high side's is the mean over the scrambles
+    of the part of the probes' range above the greatest weight each drew. A region every
+    scramble drew is seen; one a few drew is nearly unseen. Where the Sobol points gave no gain
+    over independent samples (a kinked or heavy-tailed integrand: their spread s near the
+    independent one s_ind) the plain W applies in that proportion:
+    W = max(low, high) + W_plain s / s_ind (docs/accuracy/unseen.md, "With Sobol points")."""
     hi, lo = run_probe(m, shape, wo_rows, estimator=estimator, qmc=qmc)
-    if est is not None:
-        hi = np.maximum(hi, np.abs(np.asarray(est, np.float64).reshape(hi.shape)))
-    return np.where(hi - lo <= rounding_floor(m.precision, hi), 0.0, hi)
+    flat = rounding_floor(m.precision, hi)
+    e = None if est is None else np.abs(np.asarray(est, np.float64).reshape(hi.shape))
+    if e is not None:
+        hi = np.maximum(hi, e)
+    if seen is not None and e is not None and sampling is not None:
+        k = np.shape(seen[0])[1]                    # scrambles
+        least, greatest = (np.asarray(x, np.float64).reshape(hi.shape[:1] + (k,) + hi.shape[1:])
+                           for x in seen[:2])
+        independent = np.asarray(seen[2], np.float64).reshape(hi.shape)
+        floor = rounding_floor(m.precision, hi)[:, None]
+        low = e * np.mean(least > floor, axis=1)          # scrambles that drew no zero
+        short = np.maximum(hi[:, None] - greatest, 0.0)
+        high = np.mean(np.where(short <= floor, 0.0, short), axis=1)
+        s = np.asarray(sampling, np.float64).reshape(hi.shape)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            share = np.where(independent > 0, np.minimum(s / independent, 1.0), 0.0)
+        w = np.maximum(low, high) + hi * share
+        return np.where(hi - lo <= flat, 0.0, w)
+    return np.where(hi - lo <= flat, 0.0, hi)
 
 
 GAUSS_NODES = 32

@@ -140,7 +140,10 @@ def _layout_table(args, outs) -> int:
         check_out(o)
     lay = get_layout(args.layout)
     given = any(a in ("--samples", "-n") or a.startswith(("--samples=", "-n")) for a in args.argv)
-    samples = args.samples if given else None        # None: each table's published count
+    samples = args.samples if given else None        # None: the layout's target or count
+    if given and args.match_published:
+        raise ParameterError("--samples and --match-published both set the samples a cell: "
+                             "give one")
     why = choose_estimator(args)          # brdf with Sobol points unless --estimator
     est = args.estimator
     model_for(lay["model"], args, dict(lay.get("fixed", {})))      # no device: fail before work
@@ -148,7 +151,7 @@ def _layout_table(args, outs) -> int:
     with _resumable(args, outs[0]):
         # the user's --estimator for every channel; without it, a channel of another model
         # keeps the layout's choice (Filament's cloth: mis)
-        tables = make_layout(args.layout, samples=samples,
+        tables = make_layout(args.layout, samples=samples, match_published=args.match_published,
                              estimator=None if why and est != "quadrature" else est,
                              seed=args.seed,
                              qmc=args.qmc, precision=args.precision, device=args.device,
@@ -158,7 +161,8 @@ def _layout_table(args, outs) -> int:
         written = save_tables(tables, outs, prefix=c_name(args.layout))
     for name, t in tables.items():
         print(f"{name}: {', '.join(t.quantity)} {' x '.join(str(n) for n in t.shape)} "
-              f"({t.encoding}), largest stderr {float(t.stderr.max()):.2g}")
+              f"({t.encoding}), largest {'error' if t.computed.get('estimator') == 'quadrature' else 'stderr'} "
+              f"{float(t.stderr.max()):.2g}; {t.meta.get('how', '')}")
         for label, c in t.meta.get("clamped", {}).items():
             lo, hi = t.meta["range"]
             print(f"  {name}: {c['cells']} cells of {label} clamped to [{lo:g}, {hi:g}] as the "
@@ -167,9 +171,13 @@ def _layout_table(args, outs) -> int:
                   f"); their stderr includes the clamp")
     published = sorted({t.meta.get("published_samples") or 1 << 16 for t in tables.values()},
                        reverse=True)
-    n = samples or " or ".join(map(str, published))
-    how = (f"quadrature (tol {next(iter(tables.values())).meta['computed'].get('tol')})"
-           if est == "quadrature" else f"{n} samples per cell, {_estimators(tables)}")
+    if est == "quadrature":
+        how = f"quadrature (tol {next(iter(tables.values())).meta['computed'].get('tol')})"
+    elif samples is not None or args.match_published:
+        n = samples or " or ".join(map(str, published))
+        how = f"{n} samples per cell, {_estimators(tables)}"
+    else:                       # each table as its line says: a target, the quadrature, a count
+        how = f"each table to its target or count above, {_estimators(tables)}"
     print(f"layout {args.layout}: {how}, {seconds:.1f} s; wrote {', '.join(map(str, written))}")
     if why:
         note(args, f"no --estimator: {why}")
@@ -183,7 +191,7 @@ def _estimators(tables) -> str:
         return f"{c.get('estimator')}{' + qmc' if c.get('qmc') else ''}"
     main, other = None, {}
     for t in tables.values():
-        for p in t.meta.get("parts") or [{"channels": t.quantity, "computed": t.computed}]:
+        for p in t.meta.get("parts") or [{"channels": [t.name], "computed": t.computed}]:
             h = how(p.get("computed") or {})
             main = main or h
             if h != main:
@@ -348,8 +356,12 @@ def add_parsers(sub) -> None:
                                    ".exr; 'clbrdf layouts' lists them.")
     model_arg(p, "not with --layout: the layout names it")
     p.add_argument("--layout", choices=sorted(_layouts()), default=None,
-                   help="a renderer's tables in its layout (default samples: the layout's "
-                        "published count)")
+                   help="a renderer's tables in its layout; by default each table to its "
+                        "consumer's shipped error where the layout states it (Cycles), else "
+                        "the published sample count")
+    p.add_argument("--match-published", action="store_true",
+                   help="with --layout: each table at its consumer's published sample count "
+                        "(Cycles: 2^23 a cell, 10 to 15 minutes here)")
     p.add_argument("--axis", action="append", default=[],
                    metavar="NAME=START:STOP:COUNT[:SPACING][:PLACEMENT][:min=LO]",
                    help="a grid axis: mu or theta (radians), phi, r (alpha = r^2) or a numeric "

@@ -72,31 +72,37 @@ class _Reducer:
     albedo_blocks in kernels/integrators.cl):
         sum over a block of (e - C)   = D + n (K - C)
         sum over a block of (e - C)^2 = Q + 2 (K - C) D + n (K - C)^2.
-    With QMC the error comes from the streams' means alone: T is not kept."""
+    With QMC the error comes from the streams' means; T (the spread within each scramble) and the
+    least and greatest weight drawn (``lo``, ``hi`` per point and channel) are what the
+    unseen-event allowance reads (``seen``)."""
 
     def __init__(self, npts, plan: AlbedoPlan, nch):
         shape = (npts, plan.streams, nch)
         self.plan = plan
         self.C = np.zeros(shape)
         self.S = np.zeros(shape)
-        self.T = np.zeros(shape) if plan.streams == 1 else None
+        self.T = np.zeros(shape)
+        qmc = plan.streams > 1
+        self.lo = np.full(shape, np.inf) if qmc else None       # per scramble
+        self.hi = np.full(shape, -np.inf) if qmc else None
 
     def add(self, points: slice, stream: slice, first_block: int, kdq: np.ndarray):
-        """kdq: (points, streams, blocks, channels, 3) for blocks first_block.. of these streams."""
+        """kdq: (points, streams, blocks, channels, 3 or 5) for blocks first_block.. of these
+        streams (QMC: K, D, Q, least and greatest weight)."""
         K, D = kdq[..., 0].astype(np.float64), kdq[..., 1].astype(np.float64)
-        Q = None if self.T is None else kdq[..., 2].astype(np.float64)
+        Q = kdq[..., 2].astype(np.float64)
+        if self.lo is not None:
+            self.lo[points, stream] = np.minimum(self.lo[points, stream], kdq[..., 3].min(axis=2))
+            self.hi[points, stream] = np.maximum(self.hi[points, stream], kdq[..., 4].max(axis=2))
         if first_block == 0:
             self.C[points, stream] = K[:, :, 0]
             if K.shape[2] == 1:       # one block per stream: C = K, the sums are D and Q (+ 0.0
                 self.S[points, stream] = D[:, :, 0] + 0.0     # as 0 + D in the general case)
-                if self.T is not None:
-                    self.T[points, stream] = Q[:, :, 0] + 0.0
+                self.T[points, stream] = Q[:, :, 0] + 0.0
                 return
         n = self.plan.counts(first_block, K.shape[2])[None, None, :, None]
         dk = K - self.C[points, stream][:, :, None]
-        sums = [(self.S, D + n * dk)]
-        if self.T is not None:
-            sums.append((self.T, Q + 2 * dk * D + n * dk * dk))
+        sums = [(self.S, D + n * dk), (self.T, Q + 2 * dk * D + n * dk * dk)]
         for acc, t in sums:
             seq = np.concatenate([acc[points, stream][:, :, None], t], axis=2)
             acc[points, stream] = np.cumsum(seq, axis=2)[:, :, -1]    # sequential: split-independent
@@ -111,6 +117,17 @@ class _Reducer:
             return mean, np.sqrt(var / self.plan.streams)
         var = np.maximum(self.T[:, 0] - self.S[:, 0] ** 2 / n, 0.0) / (n - 1)
         return means[:, 0], np.sqrt(var / n)
+
+    def seen(self):
+        """With QMC: the least and greatest weight each scramble drew (points, streams,
+        channels), and per (point, channel) the standard error the same samples would have as
+        independent ones (the pooled spread of the weights within the scrambles, over
+        sqrt(N)); None with Philox."""
+        if self.lo is None:
+            return None
+        n, k = self.plan.per_stream, self.plan.streams
+        within = np.maximum(self.T - self.S ** 2 / n, 0.0).sum(axis=1) / (k * (n - 1))
+        return self.lo, self.hi, np.sqrt(within / (n * k))
 
 
 def _point_buffers(ctx, params_full, wo_full, a: int, k: int):
@@ -129,7 +146,9 @@ def run_albedo(m, shape, wo_rows, *, estimator: str, samples: int, seed: int, qm
                progress: bool, point0: int = 0):
     """E and its standard error at every point of ``shape`` (model parameters broadcast with the
     outgoing directions ``wo_rows`` = [x, y, z]). Returns (E, stderr) of shape (points, channels),
-    the plan and the seconds spent. The random numbers of flat point i are keyed by (seed,
+    the plan, the seconds spent and, with QMC, (least weight drawn, greatest, per scramble; the
+    standard error of independent samples) at each point (``_Reducer.seen``; None with
+    Philox). The random numbers of flat point i are keyed by (seed,
     point0 + i): a caller that computes part of a larger set passes the part's first index."""
     import pyopencl as cl
     plan = AlbedoPlan(samples, qmc, m.width)
@@ -153,6 +172,7 @@ def run_albedo(m, shape, wo_rows, *, estimator: str, samples: int, seed: int, qm
     # split into launches must not add compilations)
     local = ndrange(npts * plan.blocks, m.device)[1]
     L = plan.lanes
+    nout = 5 if qmc else 3          # per block: K, D, Q (and with QMC the least, greatest weight)
     block_samples = plan.block_len * L
     point, block = 0, 0            # next block to launch (block in the point's 0 .. blocks - 1)
     while point < npts:
@@ -164,7 +184,7 @@ def run_albedo(m, shape, wo_rows, *, estimator: str, samples: int, seed: int, qm
             k = 1
             nb = min(budget_blocks, plan.bps - block % plan.bps)
         bp, bw = _point_buffers(ctx, params_full, wo_full, point, k)
-        out = np.empty(k * nb * nch * 3 * L, dtype=m.dtype)
+        out = np.empty(k * nb * nch * nout * L, dtype=m.dtype)
         bo = cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes)
         tl = time.perf_counter()
         kern(q, *ndrange_with(k * nb, local), bp, prog.tables, bw, np.uint64(k), np.uint64(point0 + point),
@@ -174,10 +194,11 @@ def run_albedo(m, shape, wo_rows, *, estimator: str, samples: int, seed: int, qm
         q.finish()
         dt = time.perf_counter() - tl
         pts = slice(point, point + k)
-        # (points, groups, blocks, lanes, channels, 3) -> (points, streams, blocks, channels, 3)
+        # (points, groups, blocks, lanes, channels, nout) -> (points, streams, blocks, channels,
+        # nout)
         ng = nb // plan.bps if nb == plan.blocks else 1
-        kdq = out.reshape(k, ng, nb // ng, nch, 3, L).transpose(0, 1, 5, 2, 3, 4)
-        kdq = kdq.reshape(k, ng * L, nb // ng, nch, 3)
+        kdq = out.reshape(k, ng, nb // ng, nch, nout, L).transpose(0, 1, 5, 2, 3, 4)
+        kdq = kdq.reshape(k, ng * L, nb // ng, nch, nout)
         if nb == plan.blocks:
             red.add(pts, slice(None), 0, kdq)
             point += k
@@ -195,7 +216,7 @@ def run_albedo(m, shape, wo_rows, *, estimator: str, samples: int, seed: int, qm
         budget = int(min(LAUNCH_SAMPLES, max(block_samples, rate * LAUNCH_SECONDS)))
     bar.close()
     est, err = red.result(qmc)
-    return est, err, plan, time.perf_counter() - t0
+    return est, err, plan, time.perf_counter() - t0, red.seen()
 
 
 def run_probe(m, shape, wo_rows, *, estimator: str, qmc: bool):

@@ -354,11 +354,11 @@ def compute_chunk(job: dict, index: int, device) -> dict:
     def run(rows, samples, seed, id0, scale=False):
         m = _model(job, device, vals, pt[rows])
         wo = [w[dr[rows]] for w in wo_all]
-        e, s, plan, _ = run_albedo(m, (len(rows),), wo, samples=samples, seed=seed,
-                                           point0=id0, **est)
+        e, s, plan, _, seen = run_albedo(m, (len(rows),), wo, samples=samples, seed=seed,
+                                         point0=id0, **est)
         if scale:           # the unseen-event scale W of each estimate (core.weight_scale)
             return e, s, plan.samples, weight_scale(m, (len(rows),), wo, job["estimator"], e,
-                                                    job["qmc"])
+                                                    job["qmc"], seen=seen, sampling=s)
         return e, s, plan.samples
     # look 0: pair k of point i0 + k // D has generator index (i0 D + k), split where the 32-bit
     # index wraps (the part above 2^32 goes into the seed)

@@ -90,32 +90,36 @@ class Checkpoint:
         per = fp["chunk_points"]
         plan = AlbedoPlan(samples, qmc, m.width)
         bar = progress_bar(npts * plan.samples, progress)
-        ests, errs, seconds = [], [], 0.0
+        ests, errs, seens, seconds = [], [], [], 0.0
         for c, i0 in enumerate(range(0, npts, per)):
             i1 = min(npts, i0 + per)
             f = self.path / f"call{call:05d}.c{c:06d}.npz"
             if f.exists():
                 with np.load(f) as z:
                     e, s = z["E"], z["stderr"]
+                    seen = (z["lo"], z["hi"], z["mc"]) if "mc" in z.files else None
                 self.loaded += 1
             else:
                 sub = _take(m, shape, i0, i1)
-                e, s, plan, secs = run_albedo(
+                e, s, plan, secs, seen = run_albedo(
                     sub, (i1 - i0,), [w[i0:i1] for w in wo], estimator=estimator,
                     samples=samples, seed=seed, qmc=qmc, progress=False, point0=i0)
                 seconds += secs
-                _write_atomic(f, lambda p, e=e, s=s: _save(p, e, s))
+                _write_atomic(f, lambda p, e=e, s=s, seen=seen: _save(p, e, s, seen))
                 self.computed += 1
             ests.append(e)
             errs.append(s)
+            seens.append(seen)
             bar.update((i1 - i0) * plan.samples)
         bar.close()
-        return np.concatenate(ests), np.concatenate(errs), plan, seconds
+        seen = None if any(x is None for x in seens) else tuple(
+            np.concatenate([x[j] for x in seens]) for j in range(3))
+        return np.concatenate(ests), np.concatenate(errs), plan, seconds, seen
 
 
-def _save(path: Path, e, s) -> None:
+def _save(path: Path, e, s, seen=None) -> None:
     with open(path, "wb") as fh:        # a file object: np.savez would append .npz to a path
-        np.savez(fh, E=e, stderr=s)
+        np.savez(fh, E=e, stderr=s, **({} if seen is None else dict(zip(("lo", "hi", "mc"), seen))))
 
 
 def _pshape(m, k, shape):

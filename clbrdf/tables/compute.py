@@ -109,7 +109,7 @@ class TargetStderrWarning(UserWarning):
 
 
 def _refine(est, err, scale, shape, run, samples, target, max_samples, seed, precision,
-            what="cells"):
+            what="cells", qmc=False):
     """Refine the cells of ``shape`` (est, err: the sampling error, scale: the unseen-event
     scale W; that shape, channels last for an RGB model) whose error, the sampling error and
     ``unseen(W, n)`` in quadrature (largest over channels), is above ``target``: per look r
@@ -144,7 +144,9 @@ def _refine(est, err, scale, shape, run, samples, target, max_samples, seed, pre
         w_new = 1 - w_old
         e2[need] = w_old * e2[need] + w_new * e_new
         s2[need] = np.sqrt((w_old * s2[need]) ** 2 + (w_new * s_new) ** 2)
-        w2[need] = np.maximum(w2[need], w_new_scale)
+        # the scale of what every look missed: Philox's W is the same each look; with Sobol
+        # points a look that drew a zero, or the probes' greatest weight, has seen it
+        w2[need] = np.minimum(w2[need], w_new_scale) if qmc else np.maximum(w2[need], w_new_scale)
         n[need] += add
     missed = worst > target
     if missed.any():
@@ -245,7 +247,7 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
             return d.albedo, d.sampling_stderr, d.weight_scale
         out["E"], out["E_stderr"], out["E_samples"] = _refine(
             out["E"], r.sampling_stderr, r.weight_scale, mu_grid.shape, run_e, samples,
-            target_stderr, max_samples, seed, precision)
+            target_stderr, max_samples, seed, precision, qmc=qmc)
     channels = m.channels
     if split:
         full, full_s = out["E"], out["E_stderr"]
@@ -281,7 +283,7 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
                 return a, pa["sampling_stderr"], pa["weight_scale"]
             avg, avg_s, out["E_avg_samples"] = _refine(
                 np.asarray(avg), parts["sampling_stderr"], parts["weight_scale"], pshape, run_a,
-                samples, target_stderr, max_samples, seed, precision, what="averages")
+                samples, target_stderr, max_samples, seed, precision, what="averages", qmc=qmc)
         if split:
             for i, q in enumerate("ABE"):
                 out[q + "_avg"], out[q + "_avg_stderr"] = avg[..., i], avg_s[..., i]

@@ -213,8 +213,16 @@ def compute_table(model: str, name: str, quantity, axes: list, *, fixed=None, va
             m = midpoints(a) or a["values"]
             mids.append(check_form({"name": a["name"], "values": m,
                                     **{k: a[k] for k in ("min", "max") if a.get(k) is not None}}))
-        ck = {**kw, "progress": False, "seed": kw.get("seed", 0) + 1,
-              "samples": min(kw.get("samples", CHECK_SAMPLES), CHECK_SAMPLES)}
+        # independent samples, at most CHECK_SAMPLES (Sobol points for a quadrature table: the
+        # midpoints' own quadrature took 4x the table's time for an error of ~1e-5 beside
+        # interpolation errors of ~1e-3)
+        ck = {k: v for k, v in kw.items() if k not in ("target_stderr", "max_samples", "tol",
+                                                       "max_evals")}
+        quad = kw.get("estimator") == "quadrature"
+        ck.update(progress=False, seed=kw.get("seed", 0) + 1,
+                  samples=CHECK_SAMPLES if quad else min(kw.get("samples", CHECK_SAMPLES),
+                                                         CHECK_SAMPLES),
+                  **({"estimator": "brdf", "qmc": True} if quad else {}))
         mv, ms, _ = _run(model, mids, qs, fixed, **ck)
         if value_range is not None:
             mv = np.clip(mv, *value_range)
@@ -300,6 +308,9 @@ def layout_table(lay: dict, tab: dict, *, layout: str | None = None, **kw):
     chosen = kw.pop("estimator", None)      # the caller's, for every channel; None: the layout's
     common = dict(value_range=tab.get("range"), encoding=lay.get("encoding", "float32"),
                   layout=layout, estimator=chosen or "brdf", **kw)
+    if common["estimator"] == "quadrature":     # no samples, seed, Sobol points or target
+        for k in ("samples", "seed", "qmc", "target_stderr", "max_samples"):
+            common.pop(k, None)
     plain = [q for q in qs if isinstance(q, str)]
     parts = []                      # (labels, Table) in channel order
     if plain:
@@ -344,13 +355,50 @@ def layout_table(lay: dict, tab: dict, *, layout: str | None = None, **kw):
                  meta=meta)
 
 
+START_SAMPLES = 1 << 12     # the first look of a table refined to its layout's target
+
+
+def table_plan(lay: dict, tab: dict, *, samples=None, match_published=False,
+               target_stderr=None, max_samples=None, estimator=None) -> dict:
+    """How one table of a layout is computed: {"samples", "target_stderr", "max_samples",
+    "estimator", "basis"}. ``samples``: that many a cell. ``match_published``: the consumer's
+    published count. Default: the layout's (or table's) ``target_stderr``, the consumer's shipped
+    error, reached by refining from START_SAMPLES with Sobol points up to the published count
+    (or the table's own estimator, the quadrature for Cycles' GGX tables); a layout without a
+    target: its published count."""
+    published = tab.get("samples", lay.get("samples")) or 1 << 16
+    target = tab.get("target_stderr", lay.get("target_stderr"))
+    basis = tab.get("target_basis", lay.get("target_basis", ""))
+    if samples is not None or match_published or estimator == "quadrature":
+        n = samples if samples is not None else published
+        why = f"{n} samples a cell" + (" (the published count)" if samples is None else "")
+        return {"samples": n, "target_stderr": target_stderr, "max_samples": max_samples,
+                "estimator": estimator, "basis": why}
+    if tab.get("estimator") == "quadrature" and estimator is None and target_stderr is None:
+        return {"samples": published, "target_stderr": None, "max_samples": None,
+                "estimator": "quadrature", "basis": basis or "the deterministic quadrature"}
+    if target is None and target_stderr is None:
+        return {"samples": published, "target_stderr": None, "max_samples": max_samples,
+                "estimator": estimator, "basis": f"{published} samples a cell (the published "
+                                                 f"count)"}
+    t = target_stderr if target_stderr is not None else target
+    return {"samples": START_SAMPLES, "target_stderr": t,
+            "max_samples": max_samples if max_samples is not None else max(published, 1 << 16),
+            "estimator": estimator,
+            "basis": f"refined to a standard error of {t:g} a cell"
+                     + (f": {basis}" if basis and target_stderr is None else "")}
+
+
 def make_layout(name: str, *, samples=None, estimator=None, progress=False, command=None,
-                only=None, **kw):
-    """Every table of layout ``name`` (clbrdf/data/layouts.json) at the layout's published sample
-    count unless ``samples`` is given; returns {table name: Table}. ``estimator``: every
-    channel's; None: brdf, and a channel of another model its layout's choice (Filament's cloth
-    channel: mis). ``only``: the names of the tables to make (default: all). A table's own
-    ``samples`` (its published count) overrides the layout's."""
+                only=None, match_published: bool = False, **kw):
+    """Every table of layout ``name`` (clbrdf/data/layouts.json); returns {table name: Table}.
+    How many samples (``table_plan``): ``samples`` a cell if given; the consumer's published
+    count with ``match_published``; by default the layout's error target (its consumer's
+    shipped error, where the layout states one: ``target_stderr`` and ``target_basis``),
+    reached by refinement, or the published count where it states none. ``estimator``: every
+    channel's; None: brdf, and a table or channel with its own (Cycles' GGX tables: the
+    quadrature; Filament's cloth channel: mis). ``only``: the names of the tables to make
+    (default: all). ``target_stderr`` and ``max_samples`` in ``kw`` replace the layout's."""
     lay = get_layout(name)
     names = [t["name"] for t in lay["tables"]]
     if only is not None:
@@ -359,16 +407,22 @@ def make_layout(name: str, *, samples=None, estimator=None, progress=False, comm
         if unknown:
             raise ParameterError(f"only={unknown[0]!r} is not a table of layout {name}: choose "
                                  f"from {', '.join(names)}")
+    user_target, user_max = kw.pop("target_stderr", None), kw.pop("max_samples", None)
     out = {}
     for tab in lay["tables"]:
         if only is not None and tab["name"] not in only:
             continue
+        plan = table_plan(lay, tab, samples=samples, match_published=match_published,
+                          target_stderr=user_target, max_samples=user_max, estimator=estimator)
+        extra = {k: plan[k] for k in ("target_stderr", "max_samples") if plan[k] is not None}
+        t = layout_table(lay, tab, layout=name, samples=plan["samples"],
+                         estimator=plan["estimator"], progress=progress, command=command,
+                         **extra, **kw)
         published = tab.get("samples", lay.get("samples"))
-        n = (published or 1 << 16) if samples is None else samples
-        t = layout_table(lay, tab, layout=name, samples=n, estimator=estimator,
-                         progress=progress, command=command, **kw)
         t.meta.update({"consumer": lay["consumer"], "source": lay["source"],
-                       "notes": lay.get("notes", ""),
-                       "published_samples": published})
+                       "notes": lay.get("notes", ""), "published_samples": published,
+                       "how": plan["basis"],
+                       **({"target_stderr": plan["target_stderr"]}
+                          if plan["target_stderr"] is not None else {})})
         out[tab["name"]] = t
     return out
