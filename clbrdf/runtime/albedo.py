@@ -111,10 +111,14 @@ class _Reducer:
         n = self.plan.per_stream
         means = self.C + self.S / n                      # (points, streams, channels)
         if qmc:         # the spread of the scrambles' means (einsum: 6x faster than std here)
+            k = self.plan.streams
             mean = means.mean(axis=1)
             d = means - mean[:, None]
-            var = np.einsum("psc,psc->pc", d, d) / (self.plan.streams - 1)
-            return mean, np.sqrt(var / self.plan.streams)
+            var = np.einsum("psc,psc->pc", d, d) / (k - 1)
+            # (E - mean) / sqrt(var / k) is Student's t with k - 1 = 15 degrees of freedom, of
+            # variance (k - 1) / (k - 3): scaled by its square root z has variance 1 (rms z
+            # 1.074 before, and |z| > 4 in 0.12 % of estimates where a normal has 0.006 %)
+            return mean, np.sqrt(var / k * (k - 1) / (k - 3))
         var = np.maximum(self.T[:, 0] - self.S[:, 0] ** 2 / n, 0.0) / (n - 1)
         return means[:, 0], np.sqrt(var / n)
 
