@@ -18,7 +18,7 @@ import numpy as np                   # noqa: E402
 
 import clbrdf                        # noqa: E402
 from clbrdf.studies import ladder    # noqa: E402
-from clbrdf.studies.fresnel_fits import (FITS, NODES, conductor_curve, fitted_curve,  # noqa: E402
+from clbrdf.studies.fresnel_fits import (FITS, conductor_curve, fitted_curve, gauss_rule,  # noqa: E402
                                          fresnel_errors)
 from clbrdf.tables.outputs import write_together   # noqa: E402
 
@@ -44,7 +44,7 @@ def main():
     mats = clbrdf.presets.materials("ggx")
     rows = []
     fig, axes = plt.subplots(1, len(mats), figsize=(3.2 * len(mats), 3.2), sharey=False)
-    c = NODES[::10]
+    c = gauss_rule()[0][::10]
     for ax, m in zip(axes, mats):
         p = clbrdf.presets.get("ggx", m).params
         eta, k = np.ravel(p["eta"]), np.ravel(p["k"])

@@ -8,6 +8,8 @@ inside a function would hide a cycle). Read from the source with ``ast``: nothin
 from __future__ import annotations
 
 import ast
+import subprocess
+import sys
 from pathlib import Path
 
 
@@ -149,3 +151,11 @@ def find_cycle(graph_: dict):
             if found:
                 return found
     return None
+
+
+def test_nothing_is_computed_at_import():
+    """studies.fresnel_fits solved a 2000-point Gauss-Legendre eigenproblem at import, which
+    every command paid before it started; the rule is now made on first use."""
+    code = ("import clbrdf, clbrdf.cli.main, clbrdf.studies.fresnel_fits as f; "
+            "assert f.gauss_rule.cache_info().currsize == 0")
+    subprocess.run([sys.executable, "-c", code], check=True)

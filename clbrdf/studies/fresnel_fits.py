@@ -16,6 +16,8 @@ channel, float64, from ``clbrdf.ref.microfacet.fresnel``, independent of the ker
 """
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 from scipy.optimize import minimize_scalar
 
@@ -24,8 +26,12 @@ from ..models import get_spec
 
 FITS = ("schlick", "gen_schlick", "f82")
 C82 = 1 / 7
-_X, _W = np.polynomial.legendre.leggauss(2000)
-NODES, WEIGHTS = (_X + 1) / 2, _W / 2            # Gauss-Legendre on [0, 1]
+@lru_cache(maxsize=1)
+def gauss_rule() -> tuple:
+    """(nodes, weights) of 2000-point Gauss-Legendre on [0, 1]: computed on first use (about
+    1 CPU-second, an eigenproblem), never at import."""
+    x, w = np.polynomial.legendre.leggauss(2000)
+    return (x + 1) / 2, w / 2
 
 
 def conductor_curve(eta, k, c):
@@ -57,12 +63,13 @@ def fit_conductor(eta, k, kind: str) -> dict:
         schlick82 = f0 + (1 - f0) * (1 - C82) ** 5
         tint = np.clip(conductor_curve(eta, k, np.array([C82]))[0] / schlick82, 0, 1)
         return {"f0": f0.tolist(), "f82": tint.tolist()}
-    exact = conductor_curve(eta, k, NODES)
+    nodes, weights = gauss_rule()
+    exact = conductor_curve(eta, k, nodes)
     ones = np.ones_like(f0)
 
     def loss(n):
-        d = fitted_curve("gen_schlick", {"f0": f0, "f90": ones, "exponent": n}, NODES) - exact
-        return float(np.sum(WEIGHTS[:, None] * 2 * NODES[:, None] * d * d))
+        d = fitted_curve("gen_schlick", {"f0": f0, "f90": ones, "exponent": n}, nodes) - exact
+        return float(np.sum(weights[:, None] * 2 * nodes[:, None] * d * d))
     rng = get_spec("ggx").param("exponent")
     n = minimize_scalar(loss, bounds=(0.5, 500.0), method="bounded",
                         options={"xatol": 1e-6}).x
@@ -74,9 +81,10 @@ def fresnel_errors(eta, k, kind: str, params: dict | None = None) -> dict:
     """max |F_fit - F| over c (and where), and F_avg of both, per channel."""
     eta, k = np.atleast_1d(np.asarray(eta, float)), np.atleast_1d(np.asarray(k, float))
     p = fit_conductor(eta, k, kind) if params is None else params
-    exact, fit = conductor_curve(eta, k, NODES), fitted_curve(kind, p, NODES)
+    nodes, weights = gauss_rule()
+    exact, fit = conductor_curve(eta, k, nodes), fitted_curve(kind, p, nodes)
     d = np.abs(fit - exact)
     i = np.argmax(d, axis=0)
-    favg = lambda f: np.sum(WEIGHTS[:, None] * 2 * NODES[:, None] * f, axis=0)   # noqa: E731
-    return {"params": p, "max_abs": d.max(axis=0).tolist(), "at_cos": NODES[i].tolist(),
+    favg = lambda f: np.sum(weights[:, None] * 2 * nodes[:, None] * f, axis=0)   # noqa: E731
+    return {"params": p, "max_abs": d.max(axis=0).tolist(), "at_cos": nodes[i].tolist(),
             "F_avg": favg(exact).tolist(), "F_avg_fit": favg(fit).tolist()}
