@@ -29,7 +29,9 @@ SLOW_AT_DEFAULTS = {
 
 
 @pytest.mark.parametrize("name", [pytest.param(n, marks=[pytest.mark.slow] if n in
-                                               SLOW_AT_DEFAULTS else []) for n in MODELS])
+                                               SLOW_AT_DEFAULTS else
+                                               [pytest.mark.smoke] if n == "ggx" else [])
+                                  for n in MODELS])
 def test_every_model_passes_at_defaults(name):
     r = check(name)          # the defaults of clbrdf check (2^16 samples per direction, seed 0)
     failed = {c.name for c in r.checks if not c.passed}

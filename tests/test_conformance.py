@@ -47,7 +47,8 @@ def tiered(fast, cases=CASES, limits=None):
     limits = limits or {}
 
     def param(n, cid, kw):
-        marks = [] if cid in fast else [pytest.mark.slow]
+        marks = ([pytest.mark.smoke] if cid == "defaults" else []) if cid in fast else \
+            [pytest.mark.slow]
         if (n, cid) in limits:
             marks.append(pytest.mark.xfail(strict=True, reason=limits[n, cid]))
         return pytest.param(n, cid, kw, marks=marks, id=f"{n}-{cid}")

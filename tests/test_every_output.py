@@ -53,6 +53,7 @@ CASES = {
 }
 
 
+@pytest.mark.smoke
 def test_the_cases_cover_every_suffix_the_cli_offers():
     """A new suffix or LTC layout format needs a reader here."""
     offered = {("table", s) for s in TABLE_SUFFIXES} | {("ltc", s) for s in TABLE_SUFFIXES} | \
@@ -208,8 +209,8 @@ def check_tables(outs, tmp):
 
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not installed")
-@pytest.mark.parametrize("case", ["table", "table-rgb", "layout-float16", "layout-unorm16",
-                                  "layout-float32", "ltc"])
+@pytest.mark.parametrize("case", [pytest.param("table", marks=pytest.mark.smoke), "table-rgb",
+                                  "layout-float16", "layout-unorm16", "layout-float32", "ltc"])
 def test_every_table_file_holds_the_npz_values(case, tmp_path):
     outs = _run(tmp_path, case)
     checked = check_tables(outs, tmp_path)
@@ -290,7 +291,8 @@ def _exr_textures(path, tex):
 
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not installed")
-@pytest.mark.parametrize("case", ["ltc-threejs", "ltc-cycles_sheen"])
+@pytest.mark.parametrize("case", [pytest.param("ltc-threejs", marks=pytest.mark.smoke),
+                                  "ltc-cycles_sheen"])
 def test_every_ltc_layout_file_holds_the_npz_textures(case, tmp_path):
     outs = _run(tmp_path, case)
     layout = CASES[case][0][CASES[case][0].index("--layout") + 1]
