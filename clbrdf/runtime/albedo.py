@@ -73,7 +73,7 @@ class _Reducer:
         sum over a block of (e - C)   = D + n (K - C)
         sum over a block of (e - C)^2 = Q + 2 (K - C) D + n (K - C)^2.
     With QMC the error comes from the streams' means; T (the spread within each scramble) and the
-    least and greatest weight drawn (``lo``, ``hi`` per point and channel) are what the
+    least and greatest weight drawn (``lo``, ``hi`` per point, scramble and channel) are what the
     unseen-event allowance reads (``seen``)."""
 
     def __init__(self, npts, plan: AlbedoPlan, nch):
