@@ -16,7 +16,6 @@ The ``.npz`` itself is read back by ``load_tables`` (an LTC layout's by NumPy: i
 of the README's issue (float64 tables written as unsigned short zeros).
 """
 import csv
-import json
 import re
 import shutil
 import subprocess
@@ -30,6 +29,7 @@ from clbrdf.tables.files import SUFFIXES as TABLE_SUFFIXES
 from clbrdf.tables.ltc_layouts import SUFFIXES as LTC_SUFFIXES, ltc_layouts
 from clbrdf.tables.table import load_tables
 from cliutil import run_inprocess
+from threejs import node_textures
 
 EPS32 = float(np.finfo(np.float32).eps)
 
@@ -238,27 +238,6 @@ def test_the_check_catches_a_header_of_zeros(tmp_path, monkeypatch):
 # ---------------------------------------------------------------------------------------------
 # LTC layouts: the textures of the .npz against the .js, .h and .exr
 
-def _node_textures(js, names, tmp):
-    stub = tmp / "node_modules" / "three"
-    stub.mkdir(parents=True, exist_ok=True)
-    (stub / "package.json").write_text('{"name": "three", "type": "module", "main": "index.js"}')
-    (stub / "index.js").write_text(
-        "export class DataTexture { constructor(d, w, h) { this.data = d; this.w = w; "
-        "this.h = h; } }\nexport const DataUtils = { toHalfFloat: (x) => 0 };\n"
-        + "".join(f"export const {k} = '{k}';\n" for k in
-                  ("ClampToEdgeWrapping", "FloatType", "HalfFloatType", "LinearFilter",
-                   "NearestFilter", "RGBAFormat", "UVMapping")))
-    (tmp / "package.json").write_text('{"type": "module"}')
-    (tmp / "read_js.js").write_text(
-        f"import {{ RectAreaLightTexturesLib as L }} from './{js.name}';\nconst t = L.init();\n"
-        "console.log(JSON.stringify([" + ", ".join(
-            f"[t.LTC_FLOAT_{i}.h, t.LTC_FLOAT_{i}.w, Array.from(t.LTC_FLOAT_{i}.data)]"
-            for i in range(1, len(names) + 1)) + "]));\n")
-    out = json.loads(subprocess.run(["node", "read_js.js"], cwd=tmp, capture_output=True,
-                                    text=True, check=True).stdout)
-    return {n: np.float32(d).reshape(h, w, -1) for n, (h, w, d) in zip(names, out)}
-
-
 def _c_textures(h, tex, planar, tmp):
     lines = ["#include <stdio.h>", f'#include "{h.name}"', "int main(void)", "{"]
     for k, v in tex.items():
@@ -306,7 +285,7 @@ def test_every_ltc_layout_file_holds_the_npz_textures(case, tmp_path):
         if out.suffix == ".js":
             if shutil.which("node") is None:
                 continue
-            got = _node_textures(out, list(tex), tmp_path)
+            got = node_textures(out, list(tex), tmp_path)
         elif out.suffix == ".h":
             got = _c_textures(out, tex, bool(lay.get("planar")), tmp_path)
         else:

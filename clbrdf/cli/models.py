@@ -25,10 +25,10 @@ from ..runtime.device import (
 from ..studies.check import check
 from ..version import __version__
 from .common import (
-    bars,
     EXIT_CHECK_FAILED,
     EXIT_DEVICE,
     Once,
+    bars,
     choose_estimator,
     dev_parent,
     model_arg,

@@ -23,10 +23,10 @@ from ..studies.sweepjob import (
     make_job,
 )
 from .common import (
-    bars,
     DEVICE_HELP,
     STOPPED,
     Terminated,
+    bars,
     model_arg,
     parse_params,
     quote,

@@ -26,8 +26,8 @@ from ..tables.ltc import FORMS as LTC_FORMS, fit_ltc
 from ..tables.ltc_layouts import check_ltc_out, ltc_layout, ltc_layouts, save_ltc
 from ..tables.table import DIRECTION_AXES, load_tables
 from .common import (
-    bars,
     Terminated,
+    bars,
     c_name,
     choose_estimator,
     dev_parent,
@@ -160,9 +160,10 @@ def _layout_table(args, outs) -> int:
         seconds = time.perf_counter() - t0
         written = save_tables(tables, outs, prefix=c_name(args.layout))
     for name, t in tables.items():
+        err = "error" if t.computed.get("estimator") == "quadrature" else "stderr"
         print(f"{name}: {', '.join(t.quantity)} {' x '.join(str(n) for n in t.shape)} "
-              f"({t.encoding}), largest {'error' if t.computed.get('estimator') == 'quadrature' else 'stderr'} "
-              f"{float(t.stderr.max()):.2g}; {t.meta.get('how', '')}")
+              f"({t.encoding}), largest {err} {float(t.stderr.max()):.2g}; "
+              f"{t.meta.get('how', '')}")
         for label, c in t.meta.get("clamped", {}).items():
             lo, hi = t.meta["range"]
             print(f"  {name}: {c['cells']} cells of {label} clamped to [{lo:g}, {hi:g}] as the "

@@ -27,7 +27,6 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats as sps
 
 from ..api.albedo import EPS, albedo, rounding_floor, unseen
 from ..api.model import Model
@@ -336,6 +335,7 @@ def chi2_at(m, wo, n, seed, max_levels=3, side=1):
 
 
 def check_chi2(m, samples, seed, out_dir=None):
+    from scipy import stats as sps      # scipy.stats: 0.9 s to import, on use only
     cases = [(wo, side) for wo in _chi2_directions(m) for side in _sides(m)]
     k = len(cases)
     level = S.sidak(ALPHA, k)
@@ -444,6 +444,7 @@ def _delta_albedo(m, wo, seed, n=1 << 16):
 
 def check_albedo(m, samples, seed):
     """brdf and mis estimates against the sampler-free quadrature of eval (quadrature_albedo)."""
+    from scipy import stats as sps      # scipy.stats: 0.9 s to import, on use only
     wos = _chi2_directions(m) + [_dir(np.array(MU_MIN[m.precision] * 100), np.array(0.0))]
     zs, worst_z, worst = 0, 0.0, ""
     for j, wo in enumerate(wos):
@@ -494,6 +495,7 @@ def check_stderr(m, seed, samples, runs=64):
     by rounding (``_floor``) and by what the sample count cannot resolve (``_resolution``): the
     upper side judges z with both, the lower side (a stderr larger than the spread) with the
     stderr alone."""
+    from scipy import stats as sps      # scipy.stats: 0.9 s to import, on use only
     worst_v, worst = 1.0, ""
     for mu in (0.1, 0.8):
         MU = np.full(runs, mu)
@@ -521,6 +523,7 @@ def check_stderr(m, seed, samples, runs=64):
 
 
 def check_energy(m, samples, seed):
+    from scipy import stats as sps      # scipy.stats: 0.9 s to import, on use only
     mus, phis = _mus(m.precision), _phis(m)
     if m.spec.transmits:                  # wo on both sides
         mus = np.concatenate([mus, -mus])

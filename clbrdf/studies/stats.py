@@ -13,7 +13,6 @@ from typing import NamedTuple
 
 import numpy as np
 from numpy.polynomial.legendre import leggauss
-from scipy import stats as sps
 
 # Coordinates: stretched slopes (sx, sy) = (ax rho cos phi, ay rho sin phi), so that a lobe of
 # roughness (ax, ay) has width ~1 in rho whatever alpha; dw_h = cos^3 theta_h dsx dsy
@@ -122,6 +121,7 @@ def chi2_gof(observed, expected, min_expected=5.0):
     draws), after pooling small bins. Returns (statistic, degrees of freedom, p-value). With
     one bin left (every draw below the horizon, as for exppow p = 0.1, where the pdf above it
     integrates to 1e-9) there is nothing to compare: 0 degrees of freedom, p = 1."""
+    from scipy import stats as sps      # scipy.stats: 0.9 s to import, on use only
     o, e = pool_small(observed, expected, min_expected)
     stat = float(np.sum((o - e) ** 2 / e))
     dof = o.size - 1

@@ -344,7 +344,8 @@ def layout_table(lay: dict, tab: dict, *, layout: str | None = None, **kw):
         clamped.update({(labels[0] if len(labels) == 1 else k): c
                         for k, c in t.meta.get("clamped", {}).items()})
     interp = [i["interpolation"] for i in info if i["interpolation"]]
-    # every part's clamped cells (Filament's cloth channel clamps 446, its GGX channels none)
+    # every part's clamped cells (Filament's cloth channel clamps 447 at 1024 samples, its GGX
+    # channels none)
     meta = dict(base.meta, quantity=order, parts=info, clamped=clamped,
                 clamped_cells=sum(i["clamped_cells"] for i in info))
     if interp:
