@@ -1,7 +1,14 @@
-"""Per-call overhead and build time of small kernel calls, side by side for several checkouts.
+"""Per-call overhead and build time of small kernel calls, side by side for several checkouts;
+with --startup, the command line's start instead.
 
     python benchmarks/bench_overhead.py --env old=/path/to/old/venv/bin/python \
         --env new=.venv/bin/python [--rounds 3]
+    python benchmarks/bench_overhead.py --startup --env old=... --env new=... [--rounds 9]
+
+--startup: the wall time of commands that answer at once (``clbrdf --version``, ``clbrdf
+models``, a bad ``--out``, an unknown model), each environment's interpreter running
+``clbrdf.cli.main`` in a fresh process, alternating environments, median of the rounds; then
+each environment's slowest imports of ``--version`` (``python -X importtime``, cumulative).
 
 Each environment's interpreter runs the same probe in a subprocess (alternating environments,
 ``--rounds`` times): for each model, the program's source size and the number of tables it
@@ -25,7 +32,7 @@ import json, os, sys, time
 import numpy as np
 t0 = time.perf_counter()
 import clbrdf
-from clbrdf import build
+from clbrdf.runtime import build
 out = {"import_s": time.perf_counter() - t0}
 wo = np.array([[0.0, 0.6, 0.8]] * 4); wi = np.array([[0.0, -0.6, 0.8]] * 4)
 for name in sys.argv[1].split(","):
@@ -52,13 +59,51 @@ def run(python, models):
     return json.loads(r.stdout.strip().splitlines()[-1])
 
 
+COMMANDS = (("--version",), ("models",),
+            ("table", "ggx", "--axis", "mu=0.1:1:4", "--out", "/nonexistent/t.npz"),
+            ("table", "nosuch", "--axis", "mu=0.1:1:4", "--out", "t.npz"))
+START = "import sys; from clbrdf.cli import main; sys.exit(main(sys.argv[1:]))"
+
+
+def startup(envs, rounds):
+    import time
+    walls = {(n, c): [] for n, _ in envs for c in COMMANDS}
+    for _ in range(rounds):
+        for c in COMMANDS:
+            for name, py in envs:
+                t = time.perf_counter()
+                subprocess.run([py, "-c", START, *c], capture_output=True,
+                               cwd=tempfile.gettempdir())
+                walls[name, c].append(time.perf_counter() - t)
+    print(f"| command | {' | '.join(f'{n}: wall s' for n, _ in envs)} |")
+    print("|---|" + "---|" * len(envs))
+    for c in COMMANDS:
+        print(f"| `clbrdf {' '.join(c)}` | "
+              + " | ".join(f"{statistics.median(walls[n, c]):.3f}" for n, _ in envs) + " |")
+    for name, py in envs:
+        r = subprocess.run([py, "-X", "importtime", "-c", START, "--version"],
+                           capture_output=True, text=True, cwd=tempfile.gettempdir())
+        rows = []
+        for line in r.stderr.splitlines():
+            parts = line.split("|")
+            if len(parts) == 3 and parts[1].strip().isdigit():
+                rows.append((int(parts[1]), parts[2].strip()))
+        top = sorted(rows, reverse=True)[:8]
+        print(f"\n{name}: slowest imports of --version (cumulative ms): "
+              + ", ".join(f"{m} {us / 1e3:.0f}" for us, m in top))
+    print(f"\n{rounds} rounds, medians; machine: {os.cpu_count()} CPUs, {sys.platform}")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--env", action="append", required=True, help="NAME=PYTHON")
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--models", default=",".join(MODELS))
+    ap.add_argument("--startup", action="store_true", help="time the command line's start")
     a = ap.parse_args()
     envs = [e.split("=", 1) for e in a.env]
+    if a.startup:
+        return startup(envs, a.rounds)
     models = a.models.split(",")
     res = {name: [] for name, _ in envs}
     for _ in range(a.rounds):

@@ -485,7 +485,26 @@ __kernel void albedo_qmc(const global real_t *P, Tables TABLES, const global rea
  * on [0,1]^2 and the weights of three tensor rules (each entry belongs to one rule; its other
  * weights are 0): the fine rule, and two coarser ones (clbrdf/runtime/albedo.py, quad_rule). Per
  * channel the panel writes the fine rule's value at out[2 (CHANNELS g + c)] and the larger of
- * its differences from the coarse rules at + 1, its error estimate. */
+ * its differences from the coarse rules at + 1, its error estimate.
+ *
+ * QUAD_SCHLICK 1 integrates weight (1 - wo.h)^5 instead, h the half vector of wo and the
+ * sample's wi: the Schlick split's B term int f cos (1 - wo.h)^5 dwi of Heitz et al. 2016's LTC
+ * tables (clbrdf/tables/ltc.py). */
+#ifndef QUAD_SCHLICK
+#define QUAD_SCHLICK 0
+#endif
+#if QUAD_SCHLICK
+#if BRDF(SAMPLE_MEAN)
+#error "QUAD_SCHLICK needs each sample's wi: a model with SAMPLE_MEAN has none"
+#endif
+FN spec quad_weight(vec3 wo, BSample s)
+{
+    realN c = 1 - half_cos(wo, s.wi);
+    return spec_scale(s.weight, sqr(sqr(c)) * c);
+}
+#else
+#define quad_weight(wo, s) ((s).weight)
+#endif
 FN realN sidi4(realN v, realN *jac)
 {
     realN w = 1 - v, v3 = v * v * v, w3 = w * w * w, a = v3 * v, b = w3 * w, d = a + b;
@@ -533,13 +552,13 @@ __kernel void quadrature_panels(const global real_t *P, Tables TABLES, const glo
         for (int l = 0; l < BRDF(LOBES); ++l) {
             realN len = ends[l] - lo;
             u.u2 = lo + len / 2;
-            spec el = BRDF(sample)(&p, wo, u).weight;
+            spec el = quad_weight(wo, BRDF(sample)(&p, wo, u));
             for (int ch = 0; ch < CHANNELS; ++ch)
                 e.c[ch] += sel((realN)0, el.c[ch] * len, len > 0);
             lo = ends[l];
         }
 #else
-        spec e = BRDF(sample)(&p, wo, u).weight;
+        spec e = quad_weight(wo, BRDF(sample)(&p, wo, u));
 #endif
         for (int ch = 0; ch < CHANNELS; ++ch) {
             e.c[ch] = sel((realN)0, e.c[ch], jj > 0);

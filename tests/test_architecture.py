@@ -3,8 +3,11 @@
     clbrdf (the public namespace) -> cli -> studies -> tables -> api -> runtime -> ref -> models
                                                                                  -> version
 
-and never in a cycle, with every import of a clbrdf module at the top of its module (an import
-inside a function would hide a cycle). Read from the source with ``ast``: nothing is imported."""
+and never in a cycle. Every import of a clbrdf module sits at the top of its module, except in
+the command line, where each command imports what it uses inside its function (so that a command
+starts at once) and the public namespace, whose names are imported on first use (its ``PUBLIC``
+table): those imports are edges of the graph as well, checked for direction and cycles. Read
+from the source with ``ast``: nothing is imported."""
 from __future__ import annotations
 
 import ast
@@ -63,6 +66,11 @@ def imports(path: Path, mod: str, known: dict):
                     out.append((t, ch.lineno, in_function))
             visit(ch, inner)
     visit(tree, False)
+    if mod == "clbrdf":                 # PUBLIC = {name: module}: imported on first use
+        for node in tree.body:
+            if (isinstance(node, ast.Assign) and isinstance(node.value, ast.Dict)
+                    and any(getattr(t, "id", None) == "PUBLIC" for t in node.targets)):
+                out += [(v.value, v.lineno, True) for v in node.value.values]
     return out
 
 
@@ -77,9 +85,12 @@ def test_the_layers_cover_the_package():
         layer(mod)
 
 
+LAZY = ("clbrdf", "clbrdf.cli")      # where an import inside a function is the rule
+
+
 def local_imports(g: dict) -> list:
     return [f"{m}:{line} imports {t}" for m, edges in g.items() for t, line, local in edges
-            if local]
+            if local and not (m in LAZY or m.startswith("clbrdf.cli."))]
 
 
 def upward_imports(g: dict) -> list:
@@ -159,3 +170,27 @@ def test_nothing_is_computed_at_import():
     code = ("import clbrdf, clbrdf.cli.main, clbrdf.studies.fresnel_fits as f; "
             "assert f.gauss_rule.cache_info().currsize == 0")
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+# what a command that answers at once must not import: each costs 0.1 to 0.5 s here
+HEAVY = ("scipy", "matplotlib", "dask", "distributed", "zarr", "pyopencl", "OpenEXR", "tqdm",
+         "clbrdf.api", "clbrdf.studies.sweep", "clbrdf.tables.compute")
+
+
+def test_a_command_that_answers_at_once_imports_nothing_heavy(tmp_path):
+    """`clbrdf --version`, `clbrdf models`, `--help` and bad input (an unknown model, a missing
+    directory) import none of HEAVY: each command imports what it uses (the wall time, under 0.5
+    s on an idle machine, is benchmarks/bench_overhead.py's --startup)."""
+    probe = ("import sys\nfrom clbrdf.cli import main\ntry:\n    rc = main(sys.argv[1:])\n"
+             "except SystemExit as e:\n    rc = e.code\n"
+             f"heavy = [m for m in sys.modules if m.split('.')[0] in {HEAVY!r} or "
+             f"any(m == h or m.startswith(h + '.') for h in {HEAVY!r})]; "
+             "print('HEAVY', sorted(heavy)); sys.exit(rc)")
+    for argv, rc in ((["--version"], 0), (["models"], 0), (["table", "--help"], 0),
+                     (["table", "nosuchmodel", "--axis", "mu=0:1:4", "--out", "t.npz"], 2),
+                     (["layouts"], 0)):
+        r = subprocess.run([sys.executable, "-c", probe, *argv], capture_output=True,
+                           text=True, cwd=tmp_path)
+        assert r.returncode == rc, (argv, r.stderr)
+        line = [x for x in r.stdout.splitlines() if x.startswith("HEAVY")]
+        assert line == ["HEAVY []"], (argv, line)

@@ -36,7 +36,7 @@ def test_shipped_map_covers_every_cell():
             for v in values:
                 for prec in ("single", "double"):
                     for mu in (m for m in S.MUS if m >= MU_MIN[prec]):
-                        for est in S.ESTIMATORS + ("quadrature",):
+                        for est in S.ESTIMATORS:
                             for smp in (U.samplers(name) if est in ("brdf", "mis") else ("-",)):
                                 key = (name, U.sweep_label(names), float(v), float(mu), est, smp,
                                        prec)

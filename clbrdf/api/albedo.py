@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..models.microfacet import FRESNEL_NAMES
+from ..models.choices import ESTIMATORS, MC_ESTIMATORS
 from ..models.spec import ParameterError, check_int, check_mu, finite_or_raise
 from ..runtime.albedo import run_probe, runner
 from ..runtime.launch import seed_words
@@ -17,8 +18,6 @@ from ..runtime.quadrature import QUAD_MAX_EVALS, run_quadrature
 from .model import Model, _check_choice
 from .useless import warn_if_useless
 
-ESTIMATORS = ("uniform", "cosine", "brdf", "mis", "quadrature")
-MC_ESTIMATORS = ESTIMATORS[:4]
 QUAD_TOL = {"single": 1e-6, "double": 1e-7}     # default error target of the quadrature
 
 

@@ -8,12 +8,12 @@ import math
 import numpy as np
 
 from ..models import get_spec, presets
+from ..models.choices import PRECISIONS, WIDTHS
 from ..models.spec import ParameterError, check_directions, check_int
 from ..runtime.bound import Bound
 from ..runtime.device import Device, get_device
 from ..runtime.launch import kernel, ndrange, seed_words, working_width
 
-PRECISIONS = ("single", "double")
 
 
 def _check_choice(name, value, choices):
@@ -48,7 +48,7 @@ class Model(Bound):
         _check_choice("precision", precision, PRECISIONS)
         dev: Device = get_device(device)
         width = working_width(dev, precision) if width is None else width
-        if isinstance(width, bool) or width not in (1, 2, 4, 8, 16):
+        if isinstance(width, bool) or width not in WIDTHS:
             raise ParameterError(f"width={width!r} is not valid: choose one of 1, 2, 4, 8, 16")
         super().__init__(config, params, precision, dev, width)
 

@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 
 from ..models import get_spec
+from ..models.choices import MC_ESTIMATORS
 
-ESTIMATORS = ("uniform", "cosine", "brdf", "mis")
 Z_BIAS = 4.0
 USELESS = 1e-2          # relative efficiency below which an estimator is marked useless
 FLAGS = ("nonfinite", "biased", "precision_loss", "useless")
@@ -87,7 +87,7 @@ def useless_cells(m, mu, estimator: str):
     """Where the shipped map marks ``estimator`` useless or biased for model ``m`` at the
     nearest swept value of each swept parameter (the other parameters as given) and the nearest
     mu: (fraction of points, worst cell's efficiency, its z, an example), or None."""
-    if estimator not in ESTIMATORS:
+    if estimator not in MC_ESTIMATORS:
         return None
     smp = m.options.get("sampler", "-") if estimator in ("brdf", "mis") else "-"
     if smp != "-" and samplers(m.name) == ("-",):

@@ -8,11 +8,9 @@ import sys
 
 import numpy as np
 
-from ..api.albedo import ESTIMATORS
-from ..api.model import PRECISIONS, Model
 from ..models import MODELS, get_spec
+from ..models.choices import ESTIMATORS, PRECISIONS, WIDTHS
 from ..models.spec import ParameterError
-from ..runtime.build import get_include
 from ..runtime.device import (
     NO_DEVICE_HELP,
     DeviceError,
@@ -43,6 +41,7 @@ class Include(argparse.Action):
     """--include: print the C header directory and exit (as --version does)."""
 
     def __call__(self, parser, namespace, values, option_string=None):
+        from ..runtime.build import get_include
         print(get_include())
         parser.exit()
 
@@ -137,6 +136,7 @@ def usable(device) -> None:
 
 
 def model_for(name, args, params):
+    from ..api.model import Model
     m = Model(name, precision=getattr(args, "precision", "single"), device=args.device,
               width=getattr(args, "width", None), preset=getattr(args, "preset", None), **params)
     usable(m.device)
@@ -299,7 +299,7 @@ def sampling_args(p):
     p.add_argument("--seed", type=int, default=0, metavar="S", help="random seed (default 0)")
     p.add_argument("--precision", choices=PRECISIONS, default="single",
                    help="kernel arithmetic (default single)")
-    p.add_argument("--width", type=int, choices=(1, 2, 4, 8, 16), default=None,
+    p.add_argument("--width", type=int, choices=WIDTHS, default=None,
                    help="lanes per work-item (default: 16 single / 8 double on a CPU, 1 on a "
                         "GPU, or CLBRDF_WIDTH); results are bit-identical per device and width")
 

@@ -9,9 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..api.albedo import albedo
-from ..api.model import PRECISIONS
 from ..models import MODELS, presets
+from ..models.choices import PRECISIONS, WIDTHS
 from ..models.spec import ParameterError, check_directions, check_int
 from ..runtime import probe
 from ..runtime.device import (
@@ -22,7 +21,6 @@ from ..runtime.device import (
     list_devices,
     natural_width,
 )
-from ..studies.check import check
 from ..version import __version__
 from .common import (
     EXIT_CHECK_FAILED,
@@ -212,6 +210,7 @@ def _describe(d: dict) -> str:
 
 
 def cmd_albedo(args) -> int:
+    from ..api.albedo import albedo
     spec = spec_of(args.model)
     params = parse_params(spec, args.param)
     mu = parse_list(args.mu, "mu")
@@ -251,6 +250,7 @@ def cmd_albedo(args) -> int:
 
 
 def cmd_check(args) -> int:
+    from ..studies.check import check
     spec = spec_of(args.model)
     params = parse_params(spec, args.param)
     out = None
@@ -331,7 +331,7 @@ def add_parsers(sub) -> None:
     p.add_argument("--samples", "-n", type=int, default=1 << 16, metavar="N",
                    help="samples per direction (default 65536)")
     p.add_argument("--seed", type=int, default=0, metavar="S", help="random seed (default 0)")
-    p.add_argument("--width", type=int, choices=(1, 2, 4, 8, 16), default=None,
+    p.add_argument("--width", type=int, choices=WIDTHS, default=None,
                    help="lanes per work-item")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--out", metavar="DIR", help="directory for the chi-square histograms (PNG) "

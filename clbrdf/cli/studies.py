@@ -8,7 +8,7 @@ from pathlib import Path
 
 from ..models import MODELS
 from ..models.spec import ParameterError, check_int
-from ..studies import accuracy, compensation, ladder, stability
+from ..studies import settings
 from .common import (
     chart_args,
     dev_parent,
@@ -34,6 +34,7 @@ def _chart_job(args):
 
 
 def cmd_accuracy(args) -> int:
+    from ..studies import accuracy
     names, out, command, precisions = _chart_job(args)
     check_int("max-log2-samples", args.max_log2_samples, 6, 30)
 
@@ -48,6 +49,7 @@ def cmd_accuracy(args) -> int:
 
 
 def cmd_stability(args) -> int:
+    from ..studies import stability
     names, out, command, precisions = _chart_job(args)
     check_int("samples", args.samples, 1024, 1 << 24, "[1024, 2^24]")
     if args.before and not Path(args.before).is_file():
@@ -62,6 +64,7 @@ def cmd_stability(args) -> int:
 
 
 def cmd_simplest(args) -> int:
+    from ..studies import ladder
     spec = spec_of(args.model)
     params = parse_params(spec, args.param)
     if not math.isfinite(args.tolerance) or not 0 <= args.tolerance < 1e6:
@@ -90,6 +93,7 @@ def cmd_simplest(args) -> int:
 
 
 def cmd_ladder(args) -> int:
+    from ..studies import ladder
     names, out, command, _ = _chart_job(args)
     for n in names or ():
         if n not in ladder.configs():
@@ -109,6 +113,7 @@ def _floats(flag: str, text: str) -> tuple:
 
 
 def cmd_compensation(args) -> int:
+    from ..studies import compensation
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ParameterError(f"--out {args.out!r} is a file; give a directory")
@@ -218,13 +223,13 @@ def add_parsers(sub) -> None:
                    help="a metal preset of ggx (repeatable; default gold, copper, aluminium)")
     p.add_argument("--f0", action="append", metavar="R,G,B",
                    help="a Schlick reflectance at normal incidence (repeatable)")
-    p.add_argument("--alphas", default=",".join(map(str, compensation.ALPHAS)), metavar="A,..",
+    p.add_argument("--alphas", default=",".join(map(str, settings.ALPHAS)), metavar="A,..",
                    help="GGX roughness values (default %(default)s)")
-    p.add_argument("--mus", default=",".join(map(str, compensation.MUS)), metavar="MU,..",
+    p.add_argument("--mus", default=",".join(map(str, settings.MUS)), metavar="MU,..",
                    help="cosines of the view direction for the albedo (default %(default)s)")
-    p.add_argument("--lobe-mus", default=",".join(map(str, compensation.LOBE_MUS)),
+    p.add_argument("--lobe-mus", default=",".join(map(str, settings.LOBE_MUS)),
                    metavar="MU,..", help="view cosines of the lobe errors (default %(default)s)")
-    p.add_argument("--glass-eta", default=",".join(map(str, compensation.GLASS_ETAS)),
+    p.add_argument("--glass-eta", default=",".join(map(str, settings.GLASS_ETAS)),
                    metavar="ETA,..", help="glass indices (default %(default)s; none: no glass)")
     p.add_argument("--walks", type=int, default=1 << 20, metavar="N",
                    help="walks per albedo cell (default 2^20)")

@@ -6,22 +6,8 @@ import sys
 import time
 from pathlib import Path
 
-from ..api.model import PRECISIONS
+from ..models.choices import ERROR_RATE, MAX_GROWTH, MC_ESTIMATORS, PRECISIONS, WIDTHS
 from ..models.spec import ParameterError
-from ..runtime.device import (
-    resolve_devices,
-    split_device,
-)
-from ..studies.cluster import connect
-from ..studies.report import report
-from ..studies.sweep import open_sweep, sweep
-from ..studies.sweepjob import (
-    ERROR_RATE,
-    ESTIMATORS as SWEEP_ESTIMATORS,
-    MAX_GROWTH,
-    chunk_bounds,
-    make_job,
-)
 from .common import (
     DEVICE_HELP,
     STOPPED,
@@ -40,6 +26,10 @@ JOB_FLAGS = ("--param", "-p", "--axis", "--random", "--directions", "--samples",
 
 
 def cmd_sweep(args) -> int:
+    from ..runtime.device import resolve_devices, split_device
+    from ..studies.cluster import connect
+    from ..studies.sweep import open_sweep, sweep
+    from ..studies.sweepjob import chunk_bounds, make_job
     kw = {}
     if args.model is not None:
         spec = spec_of(args.model)
@@ -127,6 +117,8 @@ def _sweep_text(s, summ, seconds=None) -> str:
 
 
 def cmd_report(args) -> int:
+    from ..studies.report import report
+    from ..studies.sweep import open_sweep
     s = open_sweep(args.store)
     if args.out:
         out = Path(args.out)
@@ -169,7 +161,7 @@ def add_parsers(sub) -> None:
                         f"{MAX_GROWTH} x --samples)")
     p.add_argument("--target-stderr", type=float, default=None, metavar="S",
                    help="also refine every direction whose standard error exceeds S")
-    p.add_argument("--estimator", choices=SWEEP_ESTIMATORS, default="brdf",
+    p.add_argument("--estimator", choices=MC_ESTIMATORS, default="brdf",
                    help="Monte Carlo estimator (default brdf)")
     p.add_argument("--qmc", action="store_true", help="Owen-scrambled Sobol points (16 scrambles)")
     p.add_argument("--error-rate", type=float, default=ERROR_RATE, metavar="E",
@@ -177,7 +169,7 @@ def add_parsers(sub) -> None:
                         f"{ERROR_RATE:g})")
     p.add_argument("--seed", type=int, default=0, metavar="S", help="random seed (default 0)")
     p.add_argument("--precision", choices=PRECISIONS, default="single", help="default single")
-    p.add_argument("--width", type=int, choices=(1, 2, 4, 8, 16), default=None,
+    p.add_argument("--width", type=int, choices=WIDTHS, default=None,
                    help="lanes per work-item (default: the device's)")
     p.add_argument("--chunk", type=int, default=None, metavar="POINTS",
                    help="points per chunk (default: about 131072 directions' worth)")

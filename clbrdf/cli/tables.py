@@ -10,21 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..models.choices import MAX_GROWTH
 from ..models.spec import ParameterError
-from ..studies.furnace import glass_furnace, has_glass, white_furnace
-from ..tables.axes import parse_axis
-from ..tables.checkpoint import checkpoint
-from ..tables.compute import albedo_table, table_axes
-from ..tables.files import check_out, save_tables
-from ..tables.layouts import (
-    get_layout,
-    layouts,
-    layouts as _layouts,
-    make_layout,
-)
-from ..tables.ltc import FORMS as LTC_FORMS, fit_ltc
-from ..tables.ltc_layouts import check_ltc_out, ltc_layout, ltc_layouts, save_ltc
-from ..tables.table import DIRECTION_AXES, load_tables
+from ..tables.catalog import get_layout, layouts, ltc_layouts
 from .common import (
     Terminated,
     bars,
@@ -45,6 +33,8 @@ from .common import (
 
 
 def cmd_furnace(args) -> int:
+    from ..studies.furnace import glass_furnace, has_glass, white_furnace
+    from ..tables.table import load_tables
     path = Path(args.file)
     if not path.is_file():
         raise ParameterError(f"FILE {args.file!r} does not exist")
@@ -120,6 +110,7 @@ def cmd_layouts(args) -> int:
 def _resumable(args, out: Path):
     """The table's computations checkpointed beside its first output (clbrdf.tables.checkpoint), so
     that a killed run continues with --resume; the checkpoint goes once the files are written."""
+    from ..tables.checkpoint import checkpoint
     where = out.with_name(f".{out.name}.resume")
     job = {k: v for k, v in sorted(vars(args).items())
            if k not in ("resume", "argv", "func", "command") and not callable(v)}
@@ -135,6 +126,8 @@ def _resumable(args, out: Path):
 
 
 def _layout_table(args, outs) -> int:
+    from ..tables.files import check_out, save_tables
+    from ..tables.layouts import make_layout
     cmd = " ".join(["clbrdf"] + [quote(a) for a in args.argv])
     for o in outs:
         check_out(o)
@@ -202,6 +195,7 @@ def _estimators(tables) -> str:
 
 def _axes(texts) -> dict:
     """--axis texts -> {name: axis dict}, each name once."""
+    from ..tables.axes import parse_axis
     axes = {}
     for text in texts:
         ax = parse_axis(text)
@@ -212,6 +206,7 @@ def _axes(texts) -> dict:
 
 
 def cmd_table(args) -> int:
+    from ..tables.files import check_out, save_tables
     outs = [Path(o) for o in args.out]
     if args.layout:
         if args.model or args.axis or args.param or args.preset:
@@ -227,6 +222,7 @@ def cmd_table(args) -> int:
     for o in outs:
         check_out(o)
     axes = _axes(args.axis)
+    from ..tables.compute import albedo_table, table_axes
     fixed = {**params, **({"preset": args.preset} if args.preset else {})}
     # every axis against the model, and the model on the device, before any work
     table_axes(spec, axes, fixed, args.precision)
@@ -264,6 +260,7 @@ def _how(meta: dict) -> str:
 
 def _table_summary(t, seconds: float, written) -> str:
     """A few lines: grid, time, min/max E, E_avg range, files written."""
+    from ..tables.table import DIRECTION_AXES
     meta = t.computed
     names = [n for n in meta["axes"] if n != "channel"] + \
         (["channel"] if "channel" in meta["axes"] else [])
@@ -298,6 +295,10 @@ def _table_summary(t, seconds: float, written) -> str:
 
 
 def cmd_ltc(args) -> int:
+    from ..tables.compute import table_axes
+    from ..tables.files import check_out, save_tables
+    from ..tables.ltc import fit_ltc
+    from ..tables.ltc_layouts import check_ltc_out, ltc_layout, save_ltc
     outs = [Path(o) for o in args.out]
     if args.preset:
         raise ParameterError("--preset is a published RGB fit; an LTC fits one channel: give "
@@ -356,7 +357,7 @@ def add_parsers(sub) -> None:
                                    "(axes, mapping, quantity, placement, encoding) to .h, .npz or "
                                    ".exr; 'clbrdf layouts' lists them.")
     model_arg(p, "not with --layout: the layout names it")
-    p.add_argument("--layout", choices=sorted(_layouts()), default=None,
+    p.add_argument("--layout", choices=sorted(layouts()), default=None,
                    help="a renderer's tables in its layout; by default each table to its "
                         "consumer's shipped error where the layout states it (Cycles), else "
                         "the published sample count")
@@ -374,7 +375,7 @@ def add_parsers(sub) -> None:
                    help="refine each cell (and average) whose standard error is above S: 4x "
                         "its samples per look, independent numbers, up to --max-samples")
     p.add_argument("--max-samples", type=int, default=None, metavar="N",
-                   help="the most samples a refined cell takes (default 64 x --samples)")
+                   help=f"the most samples a refined cell takes (default {MAX_GROWTH} x --samples)")
     p.add_argument("--out", "-o", required=True, metavar="FILE", action="append",
                    help="output .npz, .csv, .h or .exr; with --layout or .h/.exr it may be "
                         "repeated (one computation, several files)")
@@ -414,13 +415,14 @@ def add_parsers(sub) -> None:
     p.add_argument("--axis", action="append", default=[], metavar="NAME=START:STOP:COUNT",
                    help="a grid axis: mu, theta or sqrt1m_mu (mu = 1 - v^2), r (alpha = r^2) or "
                         "a numeric parameter (as 'clbrdf table --axis'); repeat for each axis")
-    p.add_argument("--form", choices=sorted(LTC_FORMS), default=None,
+    p.add_argument("--form", default=None, metavar="FORM",
                    help="general: all free entries (default); zeltner: the two-parameter LTC of "
                         "Zeltner et al. 2022 (Cycles' sheen)")
     p.add_argument("--samples", "-n", type=int, default=1024, metavar="N",
                    help="quasi-random samples per loss evaluation (default 1024)")
     p.add_argument("--report-samples", type=int, default=1 << 16, metavar="N",
-                   help="Philox samples of E, B and the reported errors (default 2^16)")
+                   help="Philox samples of the lobe's moments and the reported errors (default 2^16; "
+                        "E and B are the deterministic quadrature's, to 1e-7)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--precision", choices=("single", "double"), default="single")
     p.add_argument("--width", type=int, default=None, help="lanes per work-item")

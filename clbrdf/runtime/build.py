@@ -60,6 +60,7 @@ def expand(name: str, seen: set | None = None) -> str:
 
 
 PARTS = ("batch", "random", "albedo", "quadrature", "ltc", "walk")
+INTEGRANDS = ("albedo", "schlick")      # of the quadrature: f cos, f cos (1 - wo.h)^5
 _TABLE = re.compile(r"\bTABLE_([a-z][a-z0-9_]*)\b")
 
 
@@ -101,13 +102,15 @@ def tables(names: tuple[str, ...]):
 
 @lru_cache(maxsize=1024)
 def program_source(cfg: Config, precision: str, width: int, *, part: str = "batch",
-                   estimator: str = "brdf", rng: str = "philox") -> tuple[str, tuple[str, ...]]:
+                   estimator: str = "brdf", rng: str = "philox",
+                   integrand: str = "albedo") -> tuple[str, tuple[str, ...]]:
     """The self-contained source of one program. ``part`` picks its kernels, so that a program
     holds only the code its caller runs: ``batch`` (eval_batch, pdf_batch, sample_batch),
     ``albedo`` (albedo_blocks for one estimator and generator), ``quadrature`` (quadrature_panels),
     ``ltc`` (ltc_moments and ltc_loss for one generator: the LTC fit), ``walk`` (walk_albedo
     and walk_sample: Heitz et al. 2016's random walk, kernels/heitz_ms.h) or ``random`` (random_batch for one
-    generator; it contains no model, so one program serves every model). Returns the source and
+    generator; it contains no model, so one program serves every model). ``integrand`` of the
+    quadrature: ``albedo`` (f cos) or ``schlick`` (f cos (1 - wo.h)^5). Returns the source and
     the names of the tables it reads (``with_tables``); assembled once per configuration."""
     if part not in PARTS:
         raise ValueError(f"part={part!r}: choose one of {', '.join(PARTS)}")
@@ -122,6 +125,10 @@ def program_source(cfg: Config, precision: str, width: int, *, part: str = "batc
     lines += [f"#define MODEL {cfg.prefix}", f"#define CHANNELS {cfg.channels}"]
     if part == "ltc":
         body.append(expand("ltc.h", seen))
+    if part == "quadrature":
+        if integrand not in INTEGRANDS:
+            raise ValueError(f"integrand={integrand!r}: choose one of {', '.join(INTEGRANDS)}")
+        lines.append(f"#define QUAD_SCHLICK {int(integrand == 'schlick')}")
     if part in ("albedo", "ltc"):
         lines += [f"#define ESTIMATOR ESTIMATOR_{estimator.upper()}",
                   f"#define RNG rand_{rng}", f"#define RNG_PHILOX {int(rng == 'philox')}"]

@@ -100,18 +100,19 @@ def _split4(box):
 
 
 def run_quadrature(m, shape, wo_rows, *, tol: float, max_evals: int = QUAD_MAX_EVALS,
-                   progress: bool = False):
+                   progress: bool = False, integrand: str = "albedo"):
     """E at every point of ``shape`` by quadrature_panels: QUAD_FIRST_PANELS^2 panels per point,
     then, while a point's error estimate (the sum of its panels' |higher - lower order|, largest
     over channels) exceeds ``tol``, its panels with the largest errors (enough that the others
     sum to at most tol / 2) are cut in four, as in clbrdf.ref.quadrature.adaptive_gl2. Panels are not
     cut below 2^-20 (single) or 2^-40 (double) of the square's side, nor past ``max_evals``
-    evaluations per point. Returns (E, err, evaluations per point, seconds); err > tol where the
-    refinement stopped first."""
+    evaluations per point. ``tol``: one target, or one per point (an array of ``shape``).
+    Returns (E, err, evaluations per point, seconds); err > tol where the refinement stopped
+    first. ``integrand="schlick"``: int f cos (1 - wo.h)^5 instead of E."""
     import pyopencl as cl
     npts = math.prod(shape)
     nch = m.channels
-    prog = m.program(part="quadrature")
+    prog = m.program(part="quadrature", integrand=integrand)
     kern = kernel(prog.program, "quadrature_panels")
     ctx, q = m.device.context, m.device.queue
     mf = cl.mem_flags
@@ -160,9 +161,11 @@ def run_quadrature(m, shape, wo_rows, *, tol: float, max_evals: int = QUAD_MAX_E
             pan.val[sl], pan.err[sl] = o[..., 0], o[..., 1]
             i += c
 
+    tols = np.broadcast_to(np.asarray(tol, dtype=float), shape).reshape(-1)
     for g0 in range(0, npts, QUAD_GROUP):
         idx = np.arange(g0, min(npts, g0 + QUAD_GROUP))
         k = idx.size
+        tol = tols[idx]
         Pb = np.ascontiguousarray(params_full[:, idx])
         bp = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=Pb) if Pb.size else \
             cl.Buffer(ctx, mf.READ_ONLY, 8)
@@ -193,7 +196,7 @@ def run_quadrature(m, shape, wo_rows, *, tol: float, max_evals: int = QUAD_MAX_E
             base = np.concatenate([[0.0], csum])[np.searchsorted(pt2, np.arange(k))]
             done_before = csum - np.where(c2, pe2, 0.0) - base[pt2]   # split error before this
             rest = tot_err.max(axis=1)[pt2] - done_before
-            pick = c2 & (rest > tol / 2)
+            pick = c2 & (rest > tol[pt2] / 2)
             # the evaluation budget: at most (max_evals - ev) / (4 per_panel) panels per point
             rank = np.cumsum(pick) - np.concatenate([[0], np.cumsum(pick)])[np.searchsorted(pt2, np.arange(k))][pt2]
             allow = (max_evals - ev) // (4 * per_panel)

@@ -26,6 +26,7 @@ import numpy as np
 from ..api.albedo import albedo
 from ..api.model import Model
 from ..models import MODELS, get_spec
+from ..models.choices import MC_ESTIMATORS
 from ..ref import reference
 from ..tables.outputs import csv_rows, csv_text, write_together
 from ..version import __version__
@@ -43,7 +44,7 @@ MUS = (0.01, 0.2, 0.5, 0.9, 1.0)
 def mus(name: str) -> tuple:
     """The points of a model: MUS, and for a model that transmits also -MUS (wo inside)."""
     return MUS + (tuple(-m for m in MUS) if get_spec(name).transmits else ())
-ESTIMATORS = [(e, q) for e in ("uniform", "cosine", "brdf", "mis") for q in (False, True)]
+RUNS = [(e, q) for e in MC_ESTIMATORS for q in (False, True)]    # (estimator, qmc)
 QUAD_TOLS = {"single": (1e-2, 1e-3, 1e-4, 1e-5, 1e-6), "double": (1e-2, 1e-3, 1e-4, 1e-5,
                                                                    1e-6, 1e-7, 1e-8)}
 TARGETS = (1e-3, 1e-4, 1e-5, 1e-6)
@@ -94,7 +95,7 @@ def measure(name: str, precision: str, max_log2: int, ref: dict, progress=None) 
     models = {cid: Model(name, precision=precision, **kw) for cid, kw in cases(name)}
     rows = []
     runs = [(e, q, [1 << k for k in range(5, max_log2 + 1, 2)] +
-             ([1 << max_log2] if (max_log2 - 5) % 2 else [])) for e, q in ESTIMATORS]
+             ([1 << max_log2] if (max_log2 - 5) % 2 else [])) for e, q in RUNS]
     runs.append(("quadrature", False, list(QUAD_TOLS[precision])))
     for est, qmc, counts in runs:
         _run(models, est, qmc, counts[0])                   # build the programs (not timed)
@@ -146,7 +147,7 @@ def figure(rows: list[dict], name: str):
     colors = {"uniform": "tab:gray", "cosine": "tab:olive", "brdf": "tab:blue", "mis": "tab:green",
               "quadrature": "tab:red"}
     for j, prec in enumerate(precs):
-        for est, qmc in ESTIMATORS + [("quadrature", False)]:
+        for est, qmc in RUNS + [("quadrature", False)]:
             rng = "sobol" if qmc else ("none" if est == "quadrature" else "philox")
             sel = [r for r in rows if r["precision"] == prec and r["estimator"] == est
                    and r["rng"] == rng]

@@ -38,14 +38,10 @@ from ..api.model import Model
 from ..api.walk import walk_albedo, walk_sample
 from ..models.spec import ParameterError
 from ..tables.outputs import csv_text, write_together
+from .settings import ALPHAS, GLASS_ETAS, LOBE_MUS, METALS, MUS
 
 METHODS = ("kulla_conty", "turquin", "fdez_aguera", "single")
 GLASS_METHODS = ("scaled_beta", "scaled_correlated", "single_beta")
-ALPHAS = (0.05, 0.1, 0.2, 0.4, 0.7, 1.0)
-MUS = (0.1, 0.3, 0.5, 0.7, 0.9, 1.0)
-LOBE_MUS = (0.2, 0.5, 0.9)
-METALS = ("gold", "copper", "aluminium")
-GLASS_ETAS = (1.33, 1.5, 2.0)
 MU_BINS, PHI_BINS = 8, 8          # the lobe's bins: mu_i uniform, phi in [0, pi] (folded)
 TOL = 1e-7
 AVG_NODES = 32

@@ -48,6 +48,7 @@ from ..api.albedo import albedo
 from ..api.model import Model
 from ..api.useless import FLAGS, USELESS, Z_BIAS, read_csv, samplers, sweep_label
 from ..models import MODELS, get_spec
+from ..models.choices import ESTIMATORS, MC_ESTIMATORS
 from ..models.spec import MU_MIN
 from ..ref import reference
 from ..tables.outputs import csv_text, write_together
@@ -68,7 +69,6 @@ def sweeps(name: str) -> tuple:
 
 
 MUS = (1e-12, 1e-6, 1e-4, 1e-3, 1e-2, 0.1, 0.3, 0.6, 1.0)
-ESTIMATORS = ("uniform", "cosine", "brdf", "mis")
 SAMPLES = 1 << 16
 QUAD_MAX_EVALS = 1 << 20     # the quadrature's evaluations per cell at most
 SEED = 11
@@ -160,7 +160,7 @@ def measure(name: str, refs: dict, *, samples: int = SAMPLES, precisions=("singl
             e_ref = np.array([[refs[(sweep, float(v), float(mu))][0] for mu in mus] for v in vals])
             r_err = np.array([[refs[(sweep, float(v), float(mu))][1] for mu in mus] for v in vals])
             runs = []
-            for est in ESTIMATORS:
+            for est in MC_ESTIMATORS:
                 for smp in (samplers(name) if est in ("brdf", "mis") else ("-",)):
                     kw = _kw(names, vals[:, None] if names else None, smp) if names else \
                         ({"sampler": smp} if smp != "-" else {})
@@ -428,7 +428,7 @@ def summary(rows, checks, command, seconds, before=None, samples=SAMPLES,
     lines += ["", "## Useless regions (estimator: where, per model)", ""]
     for name in counts:
         parts = []
-        for est in ESTIMATORS + ("quadrature",):
+        for est in ESTIMATORS:
             bad = [r for r in rows if r["model"] == name and r["estimator"] == est
                    and r["useless"]]
             if bad:

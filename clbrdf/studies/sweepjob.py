@@ -16,8 +16,9 @@ from ..api.albedo import (
     unseen,
     weight_scale,
 )
-from ..api.model import PRECISIONS, Model, _check_choice
+from ..api.model import Model, _check_choice
 from ..models import get_spec, presets
+from ..models.choices import ERROR_RATE, MAX_GROWTH, MC_ESTIMATORS, PRECISIONS, WIDTHS
 from ..models.spec import ParameterError, check_int, check_mu
 from ..runtime.albedo import QMC_STREAMS, run_albedo
 from ..runtime.device import resolve_devices
@@ -27,11 +28,8 @@ from ..tables.axes import axis_from_python, check_form, parse_axis, warp
 FORMAT = 1
 NOT_DONE, UNDECIDED, CONSERVES, GAINS = -1, 0, 1, 2
 VERDICTS = {UNDECIDED: "undecided", CONSERVES: "conserves", GAINS: "gains"}
-ERROR_RATE = 1e-3         # default probability that a point's verdict is wrong
 GROWTH = 4                # each refinement multiplies a direction's samples by this
-MAX_GROWTH = 64           # default max_samples = MAX_GROWTH x samples (3 refinements)
 CHUNK_PAIRS = 1 << 17     # default chunk: about this many (point, direction) pairs
-ESTIMATORS = ("uniform", "cosine", "brdf", "mis")
 DEFAULT_MU_NODES = 32     # isotropic default directions: Gauss-Legendre nodes in mu
 ANISO_DIRECTIONS = (16, 8)  # anisotropic default: 16 mu nodes x 8 azimuths
 ARRAYS_1 = ("E_max", "E_max_stderr", "E_max_dir", "E_avg", "E_avg_stderr")
@@ -120,7 +118,7 @@ def make_job(model: str, *, axes=None, random=None, directions=None, samples: in
              chunk=None, preset=None, device=None, **fixed) -> dict:
     """Validate every argument (nothing is computed) and return the job: a JSON-able dict."""
     spec = get_spec(model)
-    _check_choice("estimator", estimator, ESTIMATORS)
+    _check_choice("estimator", estimator, MC_ESTIMATORS)
     _check_choice("precision", precision, PRECISIONS)
     if random is not None:
         random = check_int("random", random, 1, 2**40, "[1, 2^40]")
@@ -173,7 +171,7 @@ def make_job(model: str, *, axes=None, random=None, directions=None, samples: in
                              f"uses {', '.join(cfg.param_names)}")
     if width is None:
         width = working_width(resolve_devices(device)[0], precision)
-    if isinstance(width, bool) or width not in (1, 2, 4, 8, 16):
+    if isinstance(width, bool) or width not in WIDTHS:
         raise ParameterError(f"width={width!r} is not valid: choose one of 1, 2, 4, 8, 16")
     if directions is None:
         directions = gauss_directions(*ANISO_DIRECTIONS, below=spec.transmits) \

@@ -20,6 +20,7 @@ from ..api.albedo import (
 )
 from ..api.model import Model
 from ..models import get_spec
+from ..models.choices import MAX_GROWTH
 from ..models.spec import ParameterError, check_int, check_mu, finite_or_raise
 from ..runtime.launch import derive_seed, environment
 from ..runtime.quadrature import QUAD_MAX_EVALS
@@ -198,7 +199,7 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
             raise ParameterError(f"target_stderr={target_stderr!r} is out of range: valid is "
                                  f"(0, 1)")
         samples = check_int("samples", samples, 2, 2**32 - 1, "[2, 2^32)")
-        max_samples = check_int("max_samples", 64 * samples if max_samples is None
+        max_samples = check_int("max_samples", MAX_GROWTH * samples if max_samples is None
                                         else max_samples, samples, 2**32 - 1,
                                         f"[samples={samples}, 2^32)")
     elif max_samples is not None:

@@ -10,7 +10,6 @@ computes every table with ``albedo_table`` and returns ``clbrdf.Table`` objects.
 from __future__ import annotations
 
 import json
-from importlib import resources
 
 import numpy as np
 
@@ -18,6 +17,7 @@ from ..api.albedo import fresnel_avg
 from ..api.model import Model
 from ..models.microfacet import FRESNEL_NAMES
 from ..models.spec import ParameterError
+from .catalog import get_layout, layouts
 from .axes import VIEW, check_form, evaluated, midpoints, parse_axis
 from .compute import albedo_table
 from .table import ENCODINGS, Table, encode
@@ -27,19 +27,6 @@ QUANTITIES = ("E", "1-E", "E_avg", "1-E_avg", "A", "B", "A_avg", "B_avg", "F_avg
               "E_kc_avg", "1-E_kc_avg", "M", "M_avg")
 F82_K = 7 ** 7 / 6 ** 6        # the F82-tint's a at tint 0 and F0 = 1 (kernels/fresnel.h)
 FRESNEL_AXES = FRESNEL_NAMES           # axes the Kulla-Conty F_ms splits off
-
-
-def layouts() -> dict:
-    """Every layout: name -> its description (the JSON entry)."""
-    text = resources.files("clbrdf").joinpath("data/layouts.json").read_text(encoding="utf-8")
-    return {k: v for k, v in json.loads(text).items() if not k.startswith("_")}
-
-
-def get_layout(name: str) -> dict:
-    all_ = layouts()
-    if name not in all_:
-        raise ParameterError(f"layout={name!r} is not known: choose one of {', '.join(all_)}")
-    return all_[name]
 
 
 def _quantities(q) -> list:

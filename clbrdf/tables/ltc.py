@@ -2,9 +2,10 @@
 a model's lobe f(wo, wi) cos(theta_i) / E(wo) in every cell of a table, all cells at once.
 
 Per cell (a view angle and parameter values):
-- one pass of BRDF samples (Philox, ``report_samples`` per cell) gives the magnitude E, the
-  Schlick split's B term int f cos (1 - wo.h)^5 (what the engines store beside the matrix), the
-  lobe's mean direction and its second moments;
+- the magnitude E = int f cos dwi and the Schlick split's B term int f cos (1 - wo.h)^5 dwi
+  (what the engines store beside the matrix) by the deterministic quadrature in double
+  precision, to 1e-7 (``magnitudes``); one pass of BRDF samples (Philox, ``report_samples`` per
+  cell) gives the lobe's mean direction and its second moments;
 - the start: the frame of the mean direction (Heitz's X, Y, Z: y kept out for an isotropic
   model) and the scales a, b whose transformed cosine has the lobe's second moments in that
   frame (along the moments' principal axes, turned by psi about Z, for an anisotropic model or
@@ -38,7 +39,9 @@ from ..api.model import Model
 from ..models import get_spec
 from ..models.spec import ParameterError, check_int
 from ..runtime.launch import derive_seed, environment
+from ..api.albedo import QUAD_TOL
 from ..runtime.ltc import LTCRunner
+from ..runtime.quadrature import run_quadrature
 from ..version import __version__
 from . import axes as ax_mod
 from .compute import table_axes
@@ -237,6 +240,43 @@ def _canonical(minv):
     return minv
 
 
+MAGNITUDE_TOL = 1e-7        # the quadrature's error target of E and B (double precision)
+B_RELATIVE = 1e-2           # and of B, relative to B's first value, down to B_FLOOR
+B_FLOOR = 1e-11
+
+
+def magnitudes(m, wo, config: dict):
+    """(E, E_err, B, B_err, how) of model m (built from ``config``: one channel, one cell per row
+    of wo): the magnitude E = int f cos dwi and the Schlick split's B = int f cos (1 - wo.h)^5
+    dwi by the deterministic quadrature (clbrdf/runtime/quadrature.py) in double precision where
+    the device has it, to MAGNITUDE_TOL; err is the quadrature's error estimate. B's integrand
+    grows as (1 - wo.h)^5 up to the horizon, where it drops to 0: a small B (a smooth lobe near
+    normal incidence) met MAGNITUDE_TOL before any panel was cut, its estimate fooled by the drop
+    (GGX alpha 0.016 at mu 1: 1.84e-7 +- 3e-9, the truth 2.236e-7). B is therefore integrated
+    again to B_RELATIVE of its first value: then |B - truth| <= 2.2 err on a 16 x 16 grid of
+    the threejs layout's cells, against the float64 reference (tests/test_ltc.py). A cell that
+    stops above its target (at the evaluation cap) raises: a magnitude is never stored less
+    accurate than it says."""
+    double = m.device.info.has_fp64
+    q = Model(m.name, precision="double", device=m.device, **config) \
+        if double and m.precision != "double" else m
+    tol = MAGNITUDE_TOL if q.precision == "double" else QUAD_TOL["single"]
+    rows, shape = [wo[:, 0], wo[:, 1], wo[:, 2]], (len(wo),)
+    E, E_err, _, t_e = run_quadrature(q, shape, rows, tol=tol)
+    B0, _, _, t_0 = run_quadrature(q, shape, rows, tol=tol, integrand="schlick")
+    tol_b = np.clip(B_RELATIVE * B0[:, 0], B_FLOOR if q.precision == "double" else 1e-9, tol)
+    B, B_err, _, t_b = run_quadrature(q, shape, rows, tol=tol_b, integrand="schlick")
+    for what, err, target in (("E", E_err[:, 0], tol), ("B", B_err[:, 0], tol_b)):
+        if np.any(err > target):
+            i = int(np.argmax(err - target))
+            raise RuntimeError(f"fit_ltc: the quadrature of {what} stopped at error "
+                               f"{err[i]:.2g} > {np.broadcast_to(target, err.shape)[i]:g} at "
+                               f"mu={wo[i, 2]:.6g}")
+    how = {"magnitudes": "quadrature", "magnitude_tol": tol, "magnitude_precision": q.precision,
+           "magnitude_seconds": round(t_e + t_0 + t_b, 3)}
+    return E[:, 0], E_err[:, 0], B[:, 0], B_err[:, 0], how
+
+
 class _Cells:
     """The cells of a fit: the validated axes, the model over the flattened grid, wo per cell,
     and the lobe's moments (E, B, the frame and the moment-matched start) from ``N`` Philox
@@ -271,14 +311,15 @@ class _Cells:
         self.azimuth = np.stack([np.cos(phi), np.sin(phi), np.zeros(n)], axis=1)
         self.frames = _frames(first[:, 3:6], isotropic=iso, ref=self.azimuth)
         mom = self.indep.moments(N, derive_seed(seed, 1), self.frames)
-        E = self.E = mom[:, 0] / N
-        self.E_se = np.sqrt(np.maximum(mom[:, 1] / N - E * E, 0) / (N - 1))
-        B = self.B = mom[:, 2] / N
-        self.B_se = np.sqrt(np.maximum(mom[:, 12] / N - B * B, 0) / (N - 1))
+        # the magnitudes E and B by the deterministic quadrature (``magnitudes``); the samples'
+        # moments give the frame and the start
+        self.E, self.E_se, self.B, self.B_se, self.how = magnitudes(
+            m, self.wo, {**fixed, **self.params})
         # an empty cell: no sample of the lobe contributed (Charlie at alpha 1e-3 and mu >= 0.5,
         # where E < 1e-150); it is fitted as the cosine's (finite throughout) and then stored as
-        # M^-1 = I, E = B = 0 and errors 0 (``table``)
-        empty = self.empty = E <= 0
+        # M^-1 = I, its E and B and errors 0 (``table``)
+        empty = self.empty = mom[:, 0] <= 0
+        E = np.where(empty, 0.0, self.E)
         if np.all(empty):
             at = ", ".join(f"{k}={v[0]:g}" for k, v in self.params.items())
             raise ParameterError(f"fit_ltc: the lobe is empty (E = 0) in every cell (mu={mu[0]:g}"
@@ -378,13 +419,14 @@ class _Cells:
             minv_n = _canonical(minv)
             minv_n /= np.cbrt(np.abs(np.linalg.det(minv_n)))[:, None, None]
         L3, L3_se, L1, L1_se = errors
-        vals = np.concatenate([minv_n.reshape(n, 9), np.stack([self.E, self.B, L3, L1], 1)], 1)
-        errs = np.concatenate([np.zeros((n, 9)),
-                               np.stack([self.E_se, self.B_se, L3_se, L1_se], 1)], 1)
+        E, B, E_se, B_se = (np.where(self.empty, 0.0, v)
+                            for v in (self.E, self.B, self.E_se, self.B_se))
+        vals = np.concatenate([minv_n.reshape(n, 9), np.stack([E, B, L3, L1], 1)], 1)
+        errs = np.concatenate([np.zeros((n, 9)), np.stack([E_se, B_se, L3_se, L1_se], 1)], 1)
         m = self.model
         computed = {"quantity": "ltc", "model": m.name,
                     **{k: v for k, v in m.describe().items() if k != "model" and k not in self.params},
-                    "axes": self.names, "report_samples": self.N, "seed": self.seed,
+                    "axes": self.names, "report_samples": self.N, "seed": self.seed, **self.how,
                     "precision": m.precision, **meta,
                     "normalised_by": "M^-1[1][1]" if self.isotropic else "|det M^-1|^(1/3)",
                     "empty_cells": int(self.empty.sum()), "device": m.device.info.name,
@@ -409,7 +451,8 @@ def fit_ltc(name: str, axes: dict, *, samples: int = 1024, report_samples: int =
     phi axis), the magnitude ``E``, the Schlick split's ``B`` term (with
     F0: E(F0) = F0 (E - B) + B), the fit's ``L3`` error and the relative ``L1`` error, each with
     its ``_stderr`` (module docstring). ``samples``: quasi-random samples per loss evaluation
-    (a multiple of 16); ``report_samples``: Philox samples of E, B and the reported errors;
+    (a multiple of 16); ``report_samples``: Philox samples of the lobe's moments and the reported
+    errors (E and B are the quadrature's);
     ``max_iter``: Nelder-Mead iterations per cell and run, at most; ``restarts``: further runs
     from the best point; ``form``: "general" (the 4 or 6 free entries) or "zeltner" (the
     two-parameter LTC of Zeltner et al. 2022, module docstring)."""

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import io
 import json
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +15,7 @@ import numpy as np
 from ..models.spec import ParameterError
 from ..version import __version__
 from .axes import parse_axis
+from .catalog import ltc_layouts
 from .ltc import fit_ltc
 from .chart import figure_png
 from .files import exr_parts_bytes
@@ -23,10 +23,6 @@ from .outputs import probe_directory, write_together
 from .table import openexr
 
 SUFFIXES = (".js", ".h", ".npz", ".exr")
-
-
-def ltc_layouts() -> dict:
-    return json.loads(resources.files("clbrdf.data").joinpath("ltc_layouts.json").read_text())
 
 
 def sphere_form_factor(z, s2):
