@@ -422,7 +422,7 @@ def add_parsers(sub) -> None:
                    help="quasi-random samples per loss evaluation (default 1024)")
     p.add_argument("--report-samples", type=int, default=1 << 16, metavar="N",
                    help="Philox samples of the lobe's moments and the reported errors (default 2^16; "
-                        "E and B are the deterministic quadrature's, to 1e-7)")
+                        "E and B are the deterministic quadrature's, to 2e-7)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--precision", choices=("single", "double"), default="single")
     p.add_argument("--width", type=int, default=None, help="lanes per work-item")
