@@ -11,7 +11,8 @@ own reader and compared with the ``.npz`` cell by cell, within the format's reso
 - ``.csv``: Python's csv module (the values in full);
 - ``.js``: Node loads the ES module with a stub ``three`` and reads the DataTextures' data.
 
-The ``.npz`` itself is read back by ``load_tables`` (an LTC layout's by NumPy: its textures).
+The ``.npz`` itself is read back by ``load_tables`` (an LTC layout's too: its fit and its
+textures).
 ``test_the_check_catches_a_header_of_zeros`` shows that the comparison fails on the header writer
 of the README's issue (float64 tables written as unsigned short zeros).
 """
@@ -26,7 +27,8 @@ import pytest
 
 from clbrdf.tables import cheader
 from clbrdf.tables.files import SUFFIXES as TABLE_SUFFIXES
-from clbrdf.tables.ltc_layouts import SUFFIXES as LTC_SUFFIXES, ltc_layouts
+from clbrdf.tables.catalog import ltc_layouts
+from clbrdf.tables.ltc_layouts import SUFFIXES as LTC_SUFFIXES
 from clbrdf.tables.table import load_tables
 from cliutil import run_inprocess
 from threejs import node_textures
@@ -258,13 +260,15 @@ def _c_textures(h, tex, planar, tmp):
     return out
 
 
-def _exr_textures(path, tex):
+def _exr_textures(path, tables):
+    """The textures' and the fit's channels as OpenEXR reads them: one part per table, one
+    channel per quantity."""
     import OpenEXR
     with OpenEXR.File(str(path), separate_channels=True) as f:
         parts = {p.name(): p for p in f.parts}
-        out = {k: np.stack([np.asarray(parts[k].channels["RGBA"[c]].pixels, np.float32)
-                            for c in range(v.shape[-1])], -1) for k, v in tex.items()}
-        errs = {q: np.asarray(parts["errors"].channels[q].pixels, np.float64)
+        out = {k: np.stack([np.asarray(parts[k].channels[q].pixels, np.float32)
+                            for q in tables[k].quantity], -1) for k in tables if k != "ltc"}
+        errs = {q: np.asarray(parts["ltc"].channels[q].pixels, np.float64)
                 for q in ("E", "B", "L3", "L1")}
     return out, errs
 
@@ -276,11 +280,11 @@ def test_every_ltc_layout_file_holds_the_npz_textures(case, tmp_path):
     outs = _run(tmp_path, case)
     layout = CASES[case][0][CASES[case][0].index("--layout") + 1]
     lay = ltc_layouts()[layout]
-    with np.load(outs[0], allow_pickle=False) as z:
-        tex = {k: z[k] for k in lay["textures"]}
-        fit = {q: z[q] for q in ("E", "B", "L3", "L1")}
-    assert all(v.dtype == np.float32 and v.shape[-1] == len(lay["textures"][k])
-               for k, v in tex.items())
+    tables = load_tables(outs[0])
+    assert all(tables[k].raw.dtype == np.float32 and tables[k].quantity == lay["textures"][k]
+               for k in lay["textures"])
+    tex = {k: np.float32(tables[k].values) for k in lay["textures"]}
+    fit = {q: tables["ltc"][q] for q in ("E", "B", "L3", "L1")}
     for out in outs[1:]:
         if out.suffix == ".js":
             if shutil.which("node") is None:
@@ -289,8 +293,30 @@ def test_every_ltc_layout_file_holds_the_npz_textures(case, tmp_path):
         elif out.suffix == ".h":
             got = _c_textures(out, tex, bool(lay.get("planar")), tmp_path)
         else:
-            got, errs = _exr_textures(out, tex)
+            got, errs = _exr_textures(out, tables)
             for q, v in fit.items():
                 assert np.array_equal(errs[q], np.float32(v).astype(np.float64)), (out.name, q)
         for k, v in tex.items():
             assert np.array_equal(got[k], v), (out.name, k, np.abs(got[k] - v).max())
+
+
+def test_older_ltc_layout_files_load():
+    """LTC layouts as clbrdf 0.1 wrote them (before they had the tables' format: tests/data/
+    legacy, written by commit 707016e's save_ltc) load with load_tables: the .npz and the .exr
+    of one run give the same textures, errors and axes (the .exr's from the layout's axis
+    texts), and a texture's E channel is the fit's E."""
+    data = Path(__file__).parent / "data" / "legacy"
+    a = load_tables(data / "ltc_cycles_sheen_0.1.npz")
+    b = load_tables(data / "ltc_cycles_sheen_0.1.exr")
+    assert set(a) == set(b) == {"ltc", "table_sheen_ltc"}
+    for k in a:
+        assert a[k].quantity == b[k].quantity
+        assert np.array_equal(a[k].values, b[k].values), k
+        assert np.array_equal(np.float32(a[k].stderr), np.float32(b[k].stderr)), k
+        for x, y in zip(a[k].axes, b[k].axes):
+            assert x["name"] == y["name"] and np.allclose(x["values"], y["values"], atol=1e-15)
+    assert np.array_equal(a["table_sheen_ltc"].values[..., 2], a["ltc"]["E"])
+    assert a["table_sheen_ltc"].shape == (32, 32) and a["table_sheen_ltc"].meta["texture"]["planar"]
+    t = load_tables(data / "ltc_threejs_0.1.npz")
+    assert t["LTC_MAT_2"].shape == (3, 4) and t["LTC_MAT_2"].quantity == ["E", "B", "zero", "sphere"]
+    assert np.array_equal(t["LTC_MAT_2"]["E"], t["ltc"]["E"])

@@ -204,16 +204,17 @@ def test_threejs_files(ggx_cells, tmp_path):
     values; the .npz the same with the per-cell errors."""
     import shutil
     import subprocess
-    from clbrdf.tables.ltc_layouts import save_ltc, textures
+    from clbrdf import load_tables, save_tables
+    from clbrdf.tables.textures import textures
     _, fit, _ = ggx_cells
     tex = textures("threejs", fit)
-    files = save_ltc("threejs", fit, tex, [tmp_path / "ltc.js", tmp_path / "ltc.h",
-                                            tmp_path / "ltc.npz"])
+    files = save_tables({"ltc": fit, **tex}, [tmp_path / "ltc.js", tmp_path / "ltc.h",
+                                              tmp_path / "ltc.npz"], chart=False)
     assert [f.name for f in files] == ["ltc.js", "ltc.h", "ltc.npz"]
-    want = tex["LTC_MAT_1"].astype(np.float32).reshape(-1)
-    z = np.load(tmp_path / "ltc.npz")
-    assert np.array_equal(z["LTC_MAT_1"].reshape(-1), want)
-    assert np.array_equal(z["L1"], fit["L1"])
+    want = tex["LTC_MAT_1"].values.astype(np.float32).reshape(-1)
+    z = load_tables(tmp_path / "ltc.npz")
+    assert np.array_equal(z["LTC_MAT_1"].values.reshape(-1), want)
+    assert np.array_equal(z["ltc"]["L1"], fit["L1"])
     if shutil.which("node"):
         got = node_textures(tmp_path / "ltc.js", list(tex), tmp_path)["LTC_MAT_1"]
         assert got.shape[:2] == tex["LTC_MAT_1"].shape[:2]
@@ -239,10 +240,11 @@ def test_engine_layouts_read_back(ggx_cells, layout, tmp_path):
     import shutil
     import subprocess
     from clbrdf.tables.ltc import ltc_matrix
-    from clbrdf.tables.ltc_layouts import save_ltc, textures
+    from clbrdf import load_tables, save_tables
+    from clbrdf.tables.textures import textures
     _, fit, _ = ggx_cells
     tex = textures(layout, fit)
-    mat, mag = tex.values()
+    mat, mag = (t.values for t in tex.values())
     x, y, z, w = np.moveaxis(mat, -1, 0)
     one, zero = np.ones_like(x), np.zeros_like(x)
     if layout == "eevee":
@@ -261,13 +263,16 @@ def test_engine_layouts_read_back(ggx_cells, layout, tmp_path):
         outs.append(tmp_path / "ltc.exr")
     except ImportError:
         OpenEXR = None
-    save_ltc(layout, fit, tex, outs)
+    save_tables({"ltc": fit, **tex}, outs, chart=False)
     names = list(tex)
     if OpenEXR is not None:
         with OpenEXR.File(str(tmp_path / "ltc.exr"), separate_channels=True) as f:
             parts = {p.name(): p.channels for p in f.parts}
-            assert set(parts[names[1]]) == {"R", "G"}
-            assert np.array_equal(parts[names[1]]["G"].pixels, mag[..., 1].astype(np.float32))
+            q = tex[names[1]].quantity
+            assert set(parts[names[1]]) == set(q) | {c + ".stderr" for c in q}
+            assert np.array_equal(parts[names[1]][q[1]].pixels, mag[..., 1].astype(np.float32))
+        back = load_tables(tmp_path / "ltc.exr")
+        assert np.array_equal(back[names[0]].values, mat.astype(np.float32))
     if shutil.which("gcc"):
         n = mat.size
         (tmp_path / "main.c").write_text(
@@ -401,10 +406,11 @@ def test_cycles_sheen_layout(sheen_cells, tmp_path):
     import shutil
     import subprocess
     from clbrdf.tables.ltc import ltc_matrix
-    from clbrdf.tables.ltc_layouts import save_ltc, textures
+    from clbrdf import save_tables
+    from clbrdf.tables.textures import textures
     axes, z, _ = sheen_cells
     tex = textures("cycles_sheen", z)
-    planes = np.moveaxis(tex["table_sheen_ltc"], -1, 0).astype(np.float32)     # (3, rows, cols)
+    planes = np.moveaxis(tex["table_sheen_ltc"].values, -1, 0).astype(np.float32)   # (3, rows, cols)
     flat = planes.reshape(-1)
     rng = np.random.default_rng(5)
     w = rng.normal(size=(200, 3))
@@ -427,13 +433,14 @@ def test_cycles_sheen_layout(sheen_cells, tmp_path):
         outs.append(tmp_path / "s.exr")
     except ImportError:
         OpenEXR = None
-    save_ltc("cycles_sheen", z, tex, outs)
+    save_tables({"ltc": z, **tex}, outs, chart=False)
     if OpenEXR is not None:
         with OpenEXR.File(str(tmp_path / "s.exr"), separate_channels=True) as f:
             parts = {p.name(): p.channels for p in f.parts}
-            got = np.stack([parts["table_sheen_ltc"][c].pixels for c in "RGB"])
+            got = np.stack([parts["table_sheen_ltc"][c].pixels
+                            for c in tex["table_sheen_ltc"].quantity])
             assert np.array_equal(got, planes)
-            assert np.array_equal(parts["errors"]["L1"].pixels, np.float32(z["L1"]))
+            assert np.array_equal(parts["ltc"]["L1"].pixels, np.float32(z["L1"]))
     if shutil.which("gcc"):
         (tmp_path / "main.c").write_text(
             '#include <stdio.h>\n#include "s.h"\nint main(void) { for (int i = 0; i < '

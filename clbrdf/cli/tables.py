@@ -298,7 +298,7 @@ def cmd_ltc(args) -> int:
     from ..tables.compute import table_axes
     from ..tables.files import check_out, save_tables
     from ..tables.ltc import fit_ltc
-    from ..tables.ltc_layouts import check_ltc_out, ltc_layout, save_ltc
+    from ..tables.ltc_layouts import formats, ltc_layout
     outs = [Path(o) for o in args.out]
     if args.preset:
         raise ParameterError("--preset is a published RGB fit; an LTC fits one channel: give "
@@ -311,13 +311,15 @@ def cmd_ltc(args) -> int:
         if args.axis or args.form:
             raise ParameterError("--layout names the axes and the LTC's form itself: give no "
                                  "--axis or --form with it")
+        suffixes = formats(args.layout)
         for o in outs:
-            check_ltc_out(o, args.layout)
+            check_out(o, suffixes, f"layout {args.layout}'s tables")
         name = args.model or ltc_layouts()[args.layout]["model"]
         params = parse_params(spec_of(name), args.param)
         model_for(name, args, params)
-        table, tex = ltc_layout(args.layout, name, **kw, **params)
-        written = save_ltc(args.layout, table, tex, outs, chart=True)
+        tables = ltc_layout(args.layout, name, **kw, **params)
+        table = tables["ltc"]
+        written = save_tables(tables, outs, prefix=c_name(args.layout), suffixes=suffixes)
     else:
         if args.model is None or not args.axis:
             raise ParameterError("give MODEL and its axes (--axis sqrt1m_mu=0:1:64 --axis "

@@ -2,7 +2,8 @@
 ``.csv`` (long format, one row per cell; a table's average in ``NAME.avg.csv``), ``.h`` (a C
 header that compiles as C99, C++17, CUDA and OpenCL C: clbrdf.tables.cheader) and ``.exr`` (one
 part per table, one channel per quantity and ``QUANTITY.stderr``, float32, the leading axes
-stacked as rows), with a PNG chart beside the first output. All files of one call are written
+stacked as rows) and, for an LTC layout's textures, ``.js`` (three.js) and a ``.h`` of the
+texture arrays (clbrdf.tables.textures), with a PNG chart beside the first output. All files of one call are written
 together: a kill at any moment leaves the old files or the new ones (clbrdf.tables.outputs).
 ``load_tables`` (clbrdf.tables.table) reads back what is written here.
 """
@@ -20,18 +21,19 @@ from .chart import figure_png
 from .cheader import c_header
 from .outputs import probe_directory, remove_stale, tmp_prefix, write_together
 from .table import FORMAT, Table, openexr
+from .textures import c_text as textures_c_text, js_text, texture_tables
 
-SUFFIXES = (".npz", ".csv", ".h", ".exr")
+SUFFIXES = (".npz", ".csv", ".h", ".exr")      # any tables; .js: an LTC layout's textures
 
 
-def check_out(out) -> Path:
-    """Before any work: a known suffix, a directory that exists and takes new files, a path that
-    is not a directory and is writable; .exr needs OpenEXR. Raises ParameterError naming
-    ``out``."""
+def check_out(out, suffixes=SUFFIXES, what: str = "tables") -> Path:
+    """Before any work: a known suffix (one of ``suffixes``, what ``what`` is written as), a
+    directory that exists and takes new files, a path that is not a directory and is writable;
+    .exr needs OpenEXR. Raises ParameterError naming ``out``."""
     out = Path(out)
-    if out.suffix.lower() not in SUFFIXES:
-        raise ParameterError(f"out={str(out)!r}: unknown output suffix {out.suffix!r}: tables "
-                             f"are written as {', '.join(SUFFIXES)}")
+    if out.suffix.lower() not in suffixes:
+        raise ParameterError(f"out={str(out)!r}: unknown output suffix {out.suffix!r}: {what} "
+                             f"are written as {', '.join(suffixes)}")
     companions = [chart_path(out)] + ([out.with_suffix(".avg.csv")]
                                       if out.suffix.lower() == ".csv" else [])
     for p in [out] + companions:
@@ -180,36 +182,53 @@ def chart_path(out: Path) -> Path:
     return out.with_suffix(".png")
 
 
-def files_for(tables, out, *, prefix: str = "clbrdf", chart: bool = True) -> dict:
+def header_text(tables: dict, out: Path, prefix: str) -> str:
+    """.h: an LTC layout's texture arrays in the engine's memory order (clbrdf.tables.textures),
+    else every table with its lookup functions (clbrdf.tables.cheader)."""
+    if texture_tables(tables):
+        return textures_c_text(tables)
+    return c_header(flat(tables, scalars=False), prefix=prefix, guard=out.name)
+
+
+# one writer per suffix: (tables, out path, prefix) -> {path: bytes or text}
+WRITERS = {
+    ".npz": lambda tables, out, prefix: {out: npz_bytes(tables)},
+    ".csv": lambda tables, out, prefix: csv_files(tables, out),
+    ".h": lambda tables, out, prefix: {out: header_text(tables, out, prefix)},
+    ".exr": lambda tables, out, prefix: {out: exr_bytes(tables, out)},
+    ".js": lambda tables, out, prefix: {out: js_text(tables)},
+}
+
+
+def files_for(tables, out, *, prefix: str = "clbrdf", chart: bool = True,
+              suffixes=SUFFIXES) -> dict:
     """{path: bytes or text} of everything ``save_tables`` writes for one output."""
     tables = as_tables(tables)
-    out = check_out(out)
-    suffix = out.suffix.lower()
-    if suffix == ".npz":
-        files = {out: npz_bytes(tables)}
-    elif suffix == ".csv":
-        files = csv_files(tables, out)
-    elif suffix == ".h":
-        files = {out: c_header(flat(tables, scalars=False), prefix=prefix, guard=out.name)}
-    else:
-        files = {out: exr_bytes(tables, out)}
-    if chart:
-        files[chart_path(out)] = figure_png(tables)
+    out = check_out(out, suffixes)
+    files = WRITERS[out.suffix.lower()](tables, out, prefix)
+    if chart:           # the tables' charts; an LTC layout's: its fit's error map
+        charted = {k: t for k, t in tables.items() if k not in texture_tables(tables)}
+        files[chart_path(out)] = figure_png(charted)
     return files
 
 
-def save_tables(tables, out, *, prefix: str = "clbrdf", chart: bool = True) -> list:
+def save_tables(tables, out, *, prefix: str = "clbrdf", chart: bool = True,
+                suffixes=None) -> list:
     """Write a Table (or {name: Table}) to ``out``, a path or a list of them (.npz, .csv, .h,
-    .exr; module docstring), with a PNG chart beside the first (``chart=False``: none). Every
-    path is checked before anything is computed or written, and all files are committed
-    together. Returns the paths written."""
+    .exr; an LTC layout's tables also .js, as its ``suffixes`` allow; module docstring), with a
+    PNG chart beside the first (``chart=False``: none). Every path is checked before anything
+    is computed or written, and all files are committed together. Returns the paths
+    written."""
     outs = [out] if isinstance(out, (str, os.PathLike)) else list(out)
     if not outs:
         raise ParameterError("out=[] is not valid: give at least one path")
+    if suffixes is None:
+        suffixes = SUFFIXES + ((".js",) if texture_tables(as_tables(tables)) else ())
     for o in outs:
-        check_out(o)
+        check_out(o, suffixes)
     files = {}
     for i, o in enumerate(outs):
-        files.update(files_for(tables, o, prefix=prefix, chart=chart and i == 0))
+        files.update(files_for(tables, o, prefix=prefix, chart=chart and i == 0,
+                               suffixes=suffixes))
     write_together(files)
     return list(files)

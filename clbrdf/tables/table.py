@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from ..models.spec import ParameterError
-from .axes import MAPPED, VIEW, unwarp
+from .axes import MAPPED, VIEW, grid_values, parse_axis, unwarp
 
 OUTSIDE = ("warn", "clamp", "raise")     # Table.lookup outside the table's range
 
@@ -376,12 +376,48 @@ def _check_shapes(t: Table, m: dict) -> None:
                              f"{', '.join(ENCODINGS)}")
 
 
+def from_ltc_layout(meta: dict, arrays: dict, axes_values: dict | None = None) -> dict:
+    """{name: Table} of an LTC layout's file as clbrdf wrote it before its tables had one
+    format (.npz: a "meta" entry; .exr: parts with a "clbrdf_ltc" header): each texture as a
+    table of its channels, and the fit's E, B, L3, L1 with their standard errors as "ltc"."""
+    comp = meta.get("computed", {})
+    names = comp.get("axes") or [t.partition("=")[0] for t in meta["axes"]]
+    if axes_values is None:             # .exr: the layout's axis texts give the values
+        axes_values = {}
+        for text in meta["axes"]:
+            a = parse_axis(text)
+            axes_values[a["name"]] = grid_values(a["start"], a["stop"], a["count"],
+                                                 a.get("spacing", "lin"),
+                                                 a.get("placement", "nodes"))
+    axes = [{"name": n, "spacing": "list", "values": np.asarray(axes_values[n], float).tolist()}
+            for n in names]
+    out = {}
+    for k, chans in meta["textures"].items():
+        raw = np.asarray(arrays[k], np.float32)
+        out[k] = Table(name=k, axes=[dict(a) for a in axes], quantity=list(chans), raw=raw,
+                       stderr=np.zeros(raw.shape), encoding="float32",
+                       meta={"texture": {"layout": meta["layout"],
+                                         "planar": bool(meta.get("planar")), "of": "ltc"}})
+    q = ["E", "B", "L3", "L1"]
+    out["ltc"] = Table(name="ltc", axes=axes, quantity=q,
+                       raw=np.stack([np.asarray(arrays[x], np.float32) for x in q], -1),
+                       stderr=np.stack([np.asarray(arrays[x + "_stderr"], float) for x in q], -1),
+                       encoding="float32", meta={"computed": comp, "layout": meta["layout"]})
+    for t in out.values():
+        _check_shapes(t, {})
+    return out
+
+
 def _load_npz(path) -> dict:
     with open(path, "rb") as f:
         if f.read(4) != b"PK\x03\x04":   # an .npz is a zip archive; NumPy would try a pickle
             raise ParameterError(f"{str(path)!r} is not a clbrdf table file: not a zip archive "
                                  f"(an .npz is one)")
     with np.load(path, allow_pickle=False) as z:
+        if "metadata" not in z.files and "meta" in z.files:     # an LTC layout before 0.2
+            meta = json.loads(str(z["meta"]))
+            arrays = {k: z[k] for k in z.files if k != "meta"}
+            return from_ltc_layout(meta, arrays, {n: arrays[n] for n in meta["computed"]["axes"]})
         meta = json.loads(str(z["metadata"]))
         if isinstance(meta, dict) and meta.get("format") in FORMATS_READ:
             return _tables_from_json(meta, lambda k: z[k])
@@ -404,6 +440,18 @@ def _load_exr(path) -> dict:
     OpenEXR = openexr()
     meta, arrays = {"format": FORMAT, "tables": {}}, {}
     with OpenEXR.File(str(path), separate_channels=True) as f:
+        if f.parts and "clbrdf_ltc" in f.parts[0].header:      # an LTC layout before 0.2
+            old = json.loads(f.parts[0].header["clbrdf_ltc"])
+            arrays = {}
+            for part in f.parts:
+                ch = part.channels
+                if part.name() == "errors":
+                    arrays.update({c.replace(".stderr", "_stderr"): np.asarray(ch[c].pixels)
+                                   for c in ch})
+                else:
+                    arrays[part.name()] = np.stack([np.asarray(ch[c].pixels) for c in "RGBA"
+                                                    if c in ch], -1)
+            return from_ltc_layout(old, arrays)
         for part in f.parts:
             m = json.loads(part.header["clbrdf"])
             tm = m["table"]
