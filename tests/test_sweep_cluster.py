@@ -8,6 +8,7 @@ import sys
 import threading
 import time
 
+import numpy as np
 import pytest
 
 pytest.importorskip("distributed")
@@ -97,3 +98,31 @@ def test_a_worker_killed_mid_sweep(client, tmp_path):
     assert n == 24, n
     same_store(local, open_sweep(out))
     assert not set(victims) & set(client.run(os.getpid).values())     # new worker processes
+
+
+def test_a_layout_and_ltc_magnitudes_on_the_cluster_are_the_local_results(client):
+    """Inside ``on_cluster`` the albedo calls of a layout (three.js' DFG table: Monte Carlo)
+    and the quadrature of a table and of an LTC fit's magnitudes run as parts on the workers;
+    each result equals the local run bit for bit, and the workers took parts."""
+    from clbrdf.studies.cluster import on_cluster
+    from clbrdf.tables.compute import albedo_table
+    from clbrdf.tables.layouts import make_layout
+    from clbrdf.tables.ltc import fit_ltc
+
+    def run():
+        lay = make_layout("threejs", samples=1 << 10)
+        quad = albedo_table("ggx", {"mu": "0.1:1:5", "alpha": "0.05:1:4"}, estimator="quadrature",
+                            tol=1e-5)
+        ltc = fit_ltc("ggx", {"sqrt1m_mu": "0:0.9:3", "r": "0.2:1:3"}, samples=64,
+                      report_samples=256)
+        return lay, quad, ltc
+    local = run()
+    with on_cluster(client) as d:
+        dist = run()
+    assert d.tasks >= 3 * 8
+    for a, b in zip(local[0].values(), dist[0].values()):
+        assert np.array_equal(a.raw, b.raw) and np.array_equal(a.stderr, b.stderr), a.name
+    assert np.array_equal(local[1].raw, dist[1].raw)
+    assert np.array_equal(local[1].stderr, dist[1].stderr)
+    for q in ("E", "B", "L1"):
+        assert np.array_equal(local[2][q], dist[2][q]), q

@@ -14,7 +14,7 @@ from ..models.choices import ESTIMATORS, MC_ESTIMATORS
 from ..models.spec import ParameterError, check_int, check_mu, finite_or_raise
 from ..runtime.albedo import run_probe, runner
 from ..runtime.launch import seed_words
-from ..runtime.quadrature import QUAD_MAX_EVALS, run_quadrature
+from ..runtime.quadrature import QUAD_MAX_EVALS, quadrature_runner
 from .model import Model, _check_choice
 from .useless import warn_if_useless
 
@@ -121,7 +121,7 @@ def albedo(m: Model | str, mu, phi=0.0, *, estimator: str = "brdf", samples: int
     wo = [s_theta * np.cos(phi), s_theta * np.sin(phi), mu]
     cshape = shape if m.channels == 1 else shape + (m.channels,)
     if quad:
-        est, err, evals, seconds = run_quadrature(m, shape, wo, tol=tol,
+        est, err, evals, seconds = quadrature_runner()(m, shape, wo, tol=tol,
                                                           max_evals=max_evals, progress=progress)
         short = np.max(err, axis=1) > tol
         if short.any():

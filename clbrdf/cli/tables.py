@@ -107,13 +107,25 @@ def cmd_layouts(args) -> int:
 
 
 @contextlib.contextmanager
+def _where(args):
+    """The computation's albedo and quadrature calls on the cluster of --cluster, else here."""
+    if not getattr(args, "cluster", None):
+        yield None
+        return
+    from ..studies.cluster import session
+    with session(args.cluster, args.device) as d:
+        yield d
+
+
+@contextlib.contextmanager
 def _resumable(args, out: Path):
     """The table's computations checkpointed beside its first output (clbrdf.tables.checkpoint), so
     that a killed run continues with --resume; the checkpoint goes once the files are written."""
     from ..tables.checkpoint import checkpoint
     where = out.with_name(f".{out.name}.resume")
     job = {k: v for k, v in sorted(vars(args).items())
-           if k not in ("resume", "argv", "func", "command") and not callable(v)}
+           if k not in ("resume", "argv", "func", "command", "cluster") and not callable(v)}
+    # (--cluster changes where, not what: a run started here may resume on a cluster)
     try:
         with checkpoint(where, json.loads(json.dumps(job, default=str)),
                         resume=args.resume) as ck:
@@ -141,7 +153,7 @@ def _layout_table(args, outs) -> int:
     est = args.estimator
     model_for(lay["model"], args, dict(lay.get("fixed", {})))      # no device: fail before work
     t0 = time.perf_counter()
-    with _resumable(args, outs[0]):
+    with _where(args), _resumable(args, outs[0]):
         # the user's --estimator for every channel; without it, a channel of another model
         # keeps the layout's choice (Filament's cloth: mis)
         tables = make_layout(args.layout, samples=samples, match_published=args.match_published,
@@ -230,7 +242,7 @@ def cmd_table(args) -> int:
     t0 = time.perf_counter()
     why = choose_estimator(args)
     cmd = no_resume(" ".join(["clbrdf"] + [quote(a) for a in args.argv]))
-    with _resumable(args, outs[0]):
+    with _where(args), _resumable(args, outs[0]):
         table = albedo_table(spec.name, axes, samples=args.samples,
                              estimator=args.estimator, seed=args.seed, qmc=args.qmc,
                              precision=args.precision, device=args.device, width=args.width,
@@ -317,7 +329,8 @@ def cmd_ltc(args) -> int:
         name = args.model or ltc_layouts()[args.layout]["model"]
         params = parse_params(spec_of(name), args.param)
         model_for(name, args, params)
-        tables = ltc_layout(args.layout, name, **kw, **params)
+        with _where(args):
+            tables = ltc_layout(args.layout, name, **kw, **params)
         table = tables["ltc"]
         written = save_tables(tables, outs, prefix=c_name(args.layout), suffixes=suffixes)
     else:
@@ -332,7 +345,8 @@ def cmd_ltc(args) -> int:
         table_axes(spec, axes, params, args.precision)
         model_for(spec.name, args, params)
         form = {} if args.form is None else {"form": args.form}
-        table = fit_ltc(spec.name, axes, **form, **kw, **params)
+        with _where(args):
+            table = fit_ltc(spec.name, axes, **form, **kw, **params)
         written = save_tables({"ltc": table}, outs, prefix=c_name(spec.name))
     c = table.computed
     e1, se1 = np.asarray(table["L1"]), np.asarray(table["L1_stderr"])
@@ -344,6 +358,12 @@ def cmd_ltc(args) -> int:
           f"  relative L1 error of the LTC: median {np.median(e1):.3g}, max {e1.max():.3g} "
           f"+- {se1[i]:.1g} ({at})\n  wrote {', '.join(map(str, written))}")
     return 0
+
+
+CLUSTER = ("run the albedo and quadrature calls on a dask.distributed cluster: a scheduler "
+           "address, or local:N for N single-threaded local workers (pip install "
+           "'clbrdf[cluster]'); the result is the local run's, bit for bit, on the same device "
+           "kind and width")
 
 
 def add_parsers(sub) -> None:
@@ -384,6 +404,7 @@ def add_parsers(sub) -> None:
     p.add_argument("--resume", action="store_true",
                    help="continue a killed run of the same command: its finished chunks are "
                         "kept in .FILE.resume/ beside the first --out until the files are written")
+    p.add_argument("--cluster", metavar="ADDRESS", default=None, help=CLUSTER)
     p.set_defaults(func=cmd_table)
 
     p = sub.add_parser("furnace", parents=[dev],
@@ -430,6 +451,9 @@ def add_parsers(sub) -> None:
     p.add_argument("--width", type=int, default=None, help="lanes per work-item")
     p.add_argument("--out", "-o", required=True, metavar="FILE", action="append",
                    help="output file; may be repeated")
+    p.add_argument("--cluster", metavar="ADDRESS", default=None,
+                   help=CLUSTER.replace("albedo and quadrature calls", "magnitudes' quadrature "
+                                        "(the fit itself runs here)"))
     p.set_defaults(func=cmd_ltc)
 
     p = sub.add_parser("layouts", help="the renderers' table layouts of 'clbrdf table --layout'")

@@ -53,6 +53,16 @@ class Bound:
                 self.channels > 1 else [v]
         return rows
 
+    def point_params(self, shape, i0: int, i1: int) -> dict:
+        """The parameters at flat points i0 .. i1 of ``shape`` (broadcast, then sliced): a part
+        of a computation, keyed by its first point (``run_albedo``'s ``point0``)."""
+        out = {}
+        for k, v in self.params.items():
+            per = (self.channels,) if k in self.config.spectral and self.channels > 1 else ()
+            a = np.broadcast_to(np.asarray(v), tuple(shape) + per).reshape((-1,) + per)
+            out[k] = np.ascontiguousarray(a[i0:i1])
+        return out
+
     def param_block(self, shape, n_pad):
         return self.soa(shape, self.param_rows(), n_pad)
 

@@ -2,6 +2,8 @@
 """
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import math
 import time
 
@@ -218,3 +220,22 @@ def run_quadrature(m, shape, wo_rows, *, tol: float, max_evals: int = QUAD_MAX_E
         bar.update(k)
     bar.close()
     return E, err, evals, time.perf_counter() - t0
+
+
+_RUNNER: contextvars.ContextVar = contextvars.ContextVar("clbrdf_quadrature_runner", default=None)
+
+
+def quadrature_runner():
+    """The quadrature driver in effect: ``run_quadrature`` unless a ``using_quadrature`` block
+    installed another with the same signature (a cluster's: clbrdf/studies/cluster.py)."""
+    return _RUNNER.get() or run_quadrature
+
+
+@contextlib.contextmanager
+def using_quadrature(run):
+    """Make ``run`` the driver of the quadrature calls inside the block."""
+    token = _RUNNER.set(run)
+    try:
+        yield run
+    finally:
+        _RUNNER.reset(token)

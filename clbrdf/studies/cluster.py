@@ -24,11 +24,15 @@ start yourself: ``POCL_CPU_MAX_CU_COUNT=T POCL_MAX_PTHREAD_COUNT=T dask worker A
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
+import math
 import os
 import platform
 import time
+
+import numpy as np
 
 try:                                    # the optional [cluster] extra
     import dask
@@ -37,8 +41,11 @@ except ImportError:
     dask = None
     WorkerPlugin = object
 from ..models.spec import ParameterError
+from ..runtime.albedo import AlbedoPlan, run_albedo, using
+from ..runtime.bound import Bound
 from ..runtime.device import get_device
 from ..runtime.launch import working_width
+from ..runtime.quadrature import QUAD_MAX_EVALS, run_quadrature, using_quadrature
 from .sweepjob import compute_chunk, device_fingerprint
 
 _STATE: dict = {}
@@ -128,6 +135,121 @@ def run_on_cluster(client: Client, root, path, job: dict, todo: list, stop, bar,
                 ac.add(submit(nxt))
     if interrupted is not None:
         raise interrupted
+
+
+# ---------------------------------------------------------------------------------------------
+# tables, layouts and LTC magnitudes: their albedo and quadrature calls on the cluster
+
+def _albedo_task(config, params, precision, width, selector, wo, kw, point0):
+    """One part of an albedo call on the worker's device: run_albedo over its points, keyed by
+    the part's first point, so that the parts make up the local call bit for bit."""
+    dev = _device(selector)
+    b = Bound(config, params, precision, dev, width)
+    e, s, _, secs, seen = run_albedo(b, (len(wo[0]),), wo, progress=False, point0=point0, **kw)
+    return e, s, secs, seen, dev.info.name
+
+
+def _quadrature_task(config, params, precision, width, selector, wo, kw):
+    dev = _device(selector)
+    b = Bound(config, params, precision, dev, width)
+    E, err, evals, secs = run_quadrature(b, (len(wo[0]),), wo, progress=False, **kw)
+    return E, err, evals, secs, dev.info.name
+
+
+class ClusterDriver:
+    """The albedo and quadrature calls of a table, a layout or an LTC fit's magnitudes, each cut
+    into parts of its points and computed on a dask.distributed cluster, ``parts_per_worker``
+    parts per worker (``on_cluster``). Random numbers are keyed by a point's flat index and the
+    quadrature refines each point by itself, so the result is bit-identical to the local run
+    when the workers' device is the local one's kind (checked: a worker on another device is an
+    error) and the width is the same."""
+
+    def __init__(self, client, device=None, parts_per_worker: int = 4):
+        if device is not None and not isinstance(device, (str, int)):
+            raise ParameterError("device: give a selector string for cluster workers")
+        self.client, self.device, self.per = client, device, parts_per_worker
+        client.register_plugin(DevicePlugin(device), name=DevicePlugin.name)
+        self.tasks = 0
+
+    def _parts(self, npts: int):
+        workers = max(1, len(self.client.scheduler_info().get("workers", {})))
+        step = max(1, math.ceil(npts / (self.per * workers)))
+        return [(i, min(npts, i + step)) for i in range(0, npts, step)]
+
+    def _map(self, fn, m, shape, wo, kw, point0: int | None):
+        npts = math.prod(shape)
+        wo = [np.broadcast_to(np.asarray(w, np.float64), shape).reshape(-1) for w in wo]
+        futs = []
+        for i0, i1 in self._parts(npts):
+            args = (m.config, m.point_params(shape, i0, i1), m.precision, m.width, self.device,
+                    [w[i0:i1] for w in wo], kw) + (() if point0 is None else (point0 + i0,))
+            futs.append(self.client.submit(fn, *args, pure=False))
+        self.tasks += len(futs)
+        out = self.client.gather(futs)
+        local = m.device.info.name
+        for r in out:
+            if r[-1] != local:
+                raise ParameterError(f"a cluster worker computed on {r[-1]!r}, this process on "
+                                     f"{local!r}: the results would differ from a local run; "
+                                     f"give the workers' device (--device) here as well")
+        return out
+
+    def run_albedo(self, m, shape, wo, *, estimator, samples, seed, qmc, progress,
+                   point0: int = 0):
+        kw = dict(estimator=estimator, samples=samples, seed=seed, qmc=qmc)
+        out = self._map(_albedo_task, m, shape, wo, kw, point0=point0)
+        seens = [r[3] for r in out]
+        seen = None if any(x is None for x in seens) else tuple(
+            np.concatenate([x[j] for x in seens]) for j in range(3))
+        return (np.concatenate([r[0] for r in out]), np.concatenate([r[1] for r in out]),
+                AlbedoPlan(samples, qmc, m.width), sum(r[2] for r in out), seen)
+
+    def run_quadrature(self, m, shape, wo, *, tol, max_evals=QUAD_MAX_EVALS, progress=False,
+                       integrand="albedo"):
+        npts = math.prod(shape)
+        tols = np.broadcast_to(np.asarray(tol, float), shape).reshape(-1)
+        parts = self._parts(npts)
+        if tols.size and np.all(tols == tols[0]):
+            kws = [dict(tol=float(tols[0]), max_evals=max_evals, integrand=integrand)] * len(parts)
+        else:
+            kws = [dict(tol=tols[i0:i1], max_evals=max_evals, integrand=integrand)
+                   for i0, i1 in parts]
+        wo = [np.broadcast_to(np.asarray(w, np.float64), shape).reshape(-1) for w in wo]
+        futs = [self.client.submit(_quadrature_task, m.config, m.point_params(shape, i0, i1),
+                                   m.precision, m.width, self.device, [w[i0:i1] for w in wo],
+                                   k, pure=False) for (i0, i1), k in zip(parts, kws)]
+        self.tasks += len(futs)
+        out = self.client.gather(futs)
+        for r in out:
+            if r[-1] != m.device.info.name:
+                raise ParameterError(f"a cluster worker computed on {r[-1]!r}, this process on "
+                                     f"{m.device.info.name!r}: give the workers' device here")
+        return (np.concatenate([r[0] for r in out]), np.concatenate([r[1] for r in out]),
+                np.concatenate([r[2] for r in out]), sum(r[3] for r in out))
+
+
+@contextlib.contextmanager
+def on_cluster(client, device=None):
+    """Inside the block every albedo and quadrature call (clbrdf.albedo_table, make_layout,
+    fit_ltc's magnitudes, ...) runs on the cluster (``ClusterDriver``)."""
+    d = ClusterDriver(client, device)
+    with using(d.run_albedo), using_quadrature(d.run_quadrature):
+        yield d
+
+
+@contextlib.contextmanager
+def session(address: str, device=None):
+    """``on_cluster`` with a client of ``connect(address)``, closed at the end (with the
+    LocalCluster of ``local:N``)."""
+    client = connect(address)
+    try:
+        with on_cluster(client, device) as d:
+            yield d
+    finally:
+        cluster = getattr(client, "cluster", None)
+        client.close()
+        if cluster is not None and address.startswith("local:"):
+            cluster.close()
 
 
 def _need_distributed():

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..models.spec import ParameterError
-from ..runtime.albedo import AlbedoPlan, run_albedo, using
+from ..runtime.albedo import AlbedoPlan, runner, using
 from ..runtime.launch import progress_bar
 from .outputs import lock_dir
 
@@ -50,6 +50,7 @@ def _write_atomic(path: Path, write) -> None:
 class Checkpoint:
     def __init__(self, path: Path):
         self.path = path
+        self.compute = runner()     # the driver of a chunk: a cluster's, where one is in effect
         self.calls = 0
         self.loaded = 0         # chunks read back
         self.computed = 0       # chunks computed
@@ -101,7 +102,7 @@ class Checkpoint:
                 self.loaded += 1
             else:
                 sub = _take(m, shape, i0, i1)
-                e, s, plan, secs, seen = run_albedo(
+                e, s, plan, secs, seen = self.compute(
                     sub, (i1 - i0,), [w[i0:i1] for w in wo], estimator=estimator,
                     samples=samples, seed=seed, qmc=qmc, progress=False, point0=i0)
                 seconds += secs
@@ -129,11 +130,7 @@ def _pshape(m, k, shape):
 def _take(m, shape, i0, i1):
     """The model at flat points i0 .. i1 of shape (parameters broadcast, then sliced)."""
     sub = copy.copy(m)
-    sub.params = {}
-    for k, v in m.params.items():
-        ps = _pshape(m, k, shape)
-        a = np.broadcast_to(np.asarray(v), ps).reshape((-1,) + ps[len(shape):])
-        sub.params[k] = np.ascontiguousarray(a[i0:i1])
+    sub.params = m.point_params(shape, i0, i1)
     return sub
 
 

@@ -41,7 +41,7 @@ from ..models.spec import ParameterError, check_int
 from ..runtime.launch import derive_seed, environment
 from ..api.albedo import QUAD_TOL
 from ..runtime.ltc import LTCRunner
-from ..runtime.quadrature import run_quadrature
+from ..runtime.quadrature import quadrature_runner
 from ..version import __version__
 from . import axes as ax_mod
 from .compute import table_axes
@@ -265,6 +265,7 @@ def magnitudes(m, wo, config: dict):
         if double and m.precision != "double" else m
     tol = MAGNITUDE_TOL if q.precision == "double" else QUAD_TOL["single"]
     rows, shape = [wo[:, 0], wo[:, 1], wo[:, 2]], (len(wo),)
+    run_quadrature = quadrature_runner()
     E, E_err, _, t_e = run_quadrature(q, shape, rows, tol=tol)
     B0, _, _, t_0 = run_quadrature(q, shape, rows, tol=tol, integrand="schlick")
     tol_b = np.clip(B_RELATIVE * B0[:, 0], B_FLOOR if q.precision == "double" else 1e-9, tol)
