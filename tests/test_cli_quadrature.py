@@ -54,7 +54,7 @@ def test_table_quadrature_metadata(tmp_path):
     (("--estimator", "mis", "--max-evals", "100000"), "--max-evals is for --estimator quadrature"),
     (("--estimator", "quadrature", "--qmc"), "qmc=True is not valid with estimator='quadrature'"),
     (("--estimator", "quadrature", "--tol", "-1"), "tol=-1.0 is out of range"),
-    (("--estimator", "quadrature", "--max-evals", "7"), "max_evals=7 is out of range")])
+    (("--estimator", "quadrature", "--max-evals", "7"), "--max-evals=7 is out of range")])
 def test_quadrature_refusals(args, msg):
     r = run_inprocess("albedo", "ggx", "--mu", "0.5", *args)
     assert r.returncode == 2 and msg in r.stderr, (r.returncode, r.stderr)

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..models.microfacet import FRESNEL_NAMES
 from ..models.choices import ESTIMATORS, MC_ESTIMATORS
-from ..models.spec import ParameterError, check_int, check_mu, finite_or_raise
+from ..models.spec import ParameterError, check_int, check_mu, finite_or_raise, given
 from ..runtime.albedo import run_probe, runner
 from ..runtime.launch import seed_words
 from ..runtime.quadrature import QUAD_MAX_EVALS, quadrature_runner
@@ -112,7 +112,7 @@ def albedo(m: Model | str, mu, phi=0.0, *, estimator: str = "brdf", samples: int
                                  f"{estimator!r}")
     mu = check_mu(mu, m.precision, below=m.spec.transmits)
     if estimator in ("uniform", "cosine") and np.any(m.spec.deltas(m.config, m.params)):
-        raise ParameterError(f"estimator={estimator!r} cannot see the delta lobe of "
+        raise ParameterError(f"{given('estimator', estimator)} cannot see the delta lobe of "
                              f"{m.spec.deltas_text}: choose brdf, mis or quadrature")
     phi = np.asarray(phi, dtype=np.float64)
     finite_or_raise("phi", phi)

@@ -13,13 +13,14 @@ import sys
 import threading
 import warnings
 
-from ..models.spec import ParameterError
+from ..models.spec import ParameterError, spelling
 from ..runtime.device import DeviceError
 from ..version import __version__
 from . import models, studies, sweeps, tables
 from .common import (
     EXIT_DEVICE,
     EXIT_INPUT,
+    FLAGS,
     STOPPED,
     Include,
     Parser,
@@ -78,7 +79,8 @@ def main(argv=None) -> int:
         warnings.filterwarnings("ignore", message=r"Non-empty compiler output encountered")
         warnings.showwarning = lambda message, category, *a, **k: print(
             f"clbrdf {args.command}: warning: {clean(message)}", file=sys.stderr)
-        return _run(args)
+        with spelling(FLAGS):           # the library's messages name the flags
+            return _run(args)
 
 
 def _run(args) -> int:

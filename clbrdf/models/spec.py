@@ -6,6 +6,8 @@ their values, validated. The generic integrators see only ``Config``.
 """
 from __future__ import annotations
 
+import contextlib
+import contextvars
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -13,7 +15,51 @@ import numpy as np
 
 
 class ParameterError(ValueError):
-    """A parameter or option with an invalid name or value; the message names the valid range."""
+    """A parameter or option with an invalid name or value; the message names the valid range
+    and ``param`` the parameter (its Python name) where one is known."""
+
+    def __init__(self, message: str = "", param: str | None = None):
+        super().__init__(message)
+        self.param = param
+
+
+# how a message names a parameter: its Python name, or the caller's (the command line's flags,
+# clbrdf/cli/common.py FLAGS) inside ``spelling``
+_SPELLING: contextvars.ContextVar = contextvars.ContextVar("clbrdf_spelling", default=None)
+
+
+@contextlib.contextmanager
+def spelling(names: dict):
+    """Inside the block, messages name a parameter as ``names`` does (name -> its spelling)."""
+    token = _SPELLING.set(names)
+    try:
+        yield
+    finally:
+        _SPELLING.reset(token)
+
+
+def called(name: str) -> str:
+    """Parameter ``name`` as the caller calls it (``spelling``): ``max_samples``, or inside the
+    command line ``--max-samples``."""
+    names = _SPELLING.get()
+    return names.get(name, name) if names else name
+
+
+def given(name: str, value) -> str:
+    """A parameter and its value as the caller writes them: ``out='t.npz'`` or, inside the
+    command line, ``--out=t.npz``; a switch set: ``resume=True`` or ``--resume``."""
+    flag = called(name)
+    if flag == name:
+        return f"{name}={value!r}"
+    return flag if value is True else f"{flag}={value}"
+
+
+def switch(name: str, on: bool) -> str:
+    """'with resume=True' / 'with resume=False', or 'with --resume' / 'without --resume'."""
+    flag = called(name)
+    if flag == name:
+        return f"with {name}={on}"
+    return f"{'with' if on else 'without'} {flag}"
 
 
 @dataclass(frozen=True)
@@ -278,7 +324,9 @@ def check_int(name: str, value, lo: int, hi: int, text: str | None = None) -> in
         value, ok = int(value), True
     rng = text or f"[{lo}, {hi}]"
     if not ok:
-        raise ParameterError(f"{name}={value!r} is not valid: {name} must be an integer in {rng}")
+        raise ParameterError(f"{given(name, value)} is not valid: {called(name)} must be an "
+                             f"integer in {rng}", name)
     if not lo <= int(value) <= hi:
-        raise ParameterError(f"{name}={int(value)} is out of range: valid {name} is in {rng}")
+        raise ParameterError(f"{given(name, int(value))} is out of range: valid {called(name)} is "
+                             f"in {rng}", name)
     return int(value)

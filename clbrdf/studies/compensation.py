@@ -36,7 +36,7 @@ import numpy as np
 from ..api.albedo import albedo, fresnel_avg
 from ..api.model import Model
 from ..api.walk import walk_albedo, walk_sample
-from ..models.spec import ParameterError
+from ..models.spec import ParameterError, given
 from ..tables.outputs import csv_text, write_together
 from .settings import ALPHAS, GLASS_ETAS, LOBE_MUS, METALS, MUS
 
@@ -373,7 +373,7 @@ def compensation_map(out, materials=None, *, alphas=ALPHAS, mus=MUS, lobe_mus=LO
         Model("ggx_dielectric", eta=e, masking="beta")
     out = Path(out)
     if out.exists() and not out.is_dir():
-        raise ParameterError(f"out={str(out)!r} is a file; give a directory")
+        raise ParameterError(f"{given('out', str(out))} is a file; give a directory", "out")
     t0 = time.perf_counter()
     rows, lobes = [], []
     for k, mat in enumerate(materials):

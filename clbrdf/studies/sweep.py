@@ -69,7 +69,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..models.spec import ParameterError
+from ..models.spec import ParameterError, called, given, switch
 from ..runtime.device import resolve_devices
 from ..runtime.launch import environment, progress_bar
 from ..tables.outputs import alive, lock_dir
@@ -262,8 +262,8 @@ def sweep(model: str | None = None, out=None, *, resume: bool = False, device=No
     path = Path(out)
     if resume:
         if not (path / "zarr.json").exists():
-            raise ParameterError(f"resume=True: {str(path)!r} is not a sweep store (no "
-                                 f"zarr.json); start it with resume=False")
+            raise ParameterError(f"{given('resume', True)}: {str(path)!r} is not a sweep store "
+                                 f"(no zarr.json); start it {switch('resume', False)}")
         old = open_sweep(path, verify=False).manifest
         if model is None:
             job = old["job"]
@@ -276,13 +276,14 @@ def sweep(model: str | None = None, out=None, *, resume: bool = False, device=No
                                      f"store's arguments or write a new store")
     else:
         if model is None:
-            raise ParameterError("a model is required (or resume=True for an existing store)")
+            raise ParameterError(f"a {called('model')} is required (or {given('resume', True)} for an "
+                                 f"existing store)", "model")
         if path.exists():
-            raise ParameterError(f"out={str(path)!r} exists: continue it with resume=True or "
-                                 f"choose a new path")
+            raise ParameterError(f"{given('out', str(path))} exists: continue it "
+                                 f"{switch('resume', True)} or choose a new path", "out")
         if not path.parent.is_dir():
-            raise ParameterError(f"out={str(path)!r}: directory {str(path.parent)!r} does not "
-                                 f"exist")
+            raise ParameterError(f"{given('out', str(path))}: directory {str(path.parent)!r} "
+                                 f"does not exist", "out")
         if client is not None and kw.get("width") is None:
             kw["width"] = worker_width(client, kw.get("precision", "single"))
         job = make_job(model, device=None if client is not None else resolve_devices(device)[0],

@@ -19,7 +19,7 @@ from ..api.albedo import (
 from ..api.model import Model, _check_choice
 from ..models import get_spec, presets
 from ..models.choices import ERROR_RATE, MAX_GROWTH, MC_ESTIMATORS, PRECISIONS, WIDTHS
-from ..models.spec import ParameterError, check_int, check_mu
+from ..models.spec import ParameterError, called, check_int, check_mu, given
 from ..runtime.albedo import QMC_STREAMS, run_albedo
 from ..runtime.device import resolve_devices
 from ..runtime.launch import derive_seed, seed_words, working_width
@@ -43,17 +43,17 @@ def _check_axis(ax: dict, spec, random: bool) -> dict:
     if not any(p.name == name for p in spec.params):
         opts = [o.name for o in spec.options]
         why = "an option: give it as a fixed argument" if name in opts else "not a parameter"
-        raise ParameterError(f"axis {name!r} of model {spec.name} is {why}; axes are the "
+        raise ParameterError(f"{called('axis')} {name!r} of model {spec.name} is {why}; axes are the "
                              f"parameters {', '.join(p.name for p in spec.params)}")
     for k in ("min", "max"):
         if ax.get(k) is not None:
-            raise ParameterError(f"axis {name}: {k}= is for tables; a sweep evaluates every "
+            raise ParameterError(f"{called('axis')} {name}: {k}= is for tables; a sweep evaluates every "
                                  f"value it is given")
     ax = check_form(ax, random)
     p = spec.param(name)
     p.check(np.asarray(ax["values"] if "values" in ax else [ax["start"], ax["stop"]]))
     if random and p.lo_open and min(ax["start"], ax["stop"]) <= p.lo:
-        raise ParameterError(f"axis {name}: {min(ax['start'], ax['stop'])!r} is out of range: "
+        raise ParameterError(f"{called('axis')} {name}: {min(ax['start'], ax['stop'])!r} is out of range: "
                              f"valid {name} is in {p.range_text()}")
     return ax
 
@@ -84,21 +84,21 @@ def parse_directions(text: str, precision: str, below: bool = False) -> dict:
         try:
             n_mu, n_phi = int(n), int(m or 1)
         except ValueError:
-            raise ParameterError(f"directions {text!r} is malformed: {form}") from None
+            raise ParameterError(f"{called('directions')} {text!r} is malformed: {form}") from None
         check_int("directions N (mu nodes)", n_mu, 1, 1024)
         check_int("directions M (azimuths)", n_phi, 1, 1024)
         return gauss_directions(n_mu, n_phi, below)
     parts = dict(p.partition("=")[::2] for p in t.split(";"))
     if "mu" not in parts or set(parts) - {"mu", "phi"}:
-        raise ParameterError(f"directions {text!r} is malformed: {form}")
+        raise ParameterError(f"{called('directions')} {text!r} is malformed: {form}")
     try:
         mu = np.array([float(x) for x in parts["mu"].split(",")])
         phi = np.array([float(x) for x in parts.get("phi", "0").split(",")])
     except ValueError:
-        raise ParameterError(f"directions {text!r}: values must be numbers ({form})") from None
+        raise ParameterError(f"{called('directions')} {text!r}: values must be numbers ({form})") from None
     check_mu(mu, precision, below)
     if not np.all(np.isfinite(phi)):
-        raise ParameterError(f"directions {text!r}: phi must be finite")
+        raise ParameterError(f"{called('directions')} {text!r}: phi must be finite")
     M, P = np.meshgrid(mu, phi, indexing="ij")
     return {"spec": t, "mu": M.ravel().tolist(), "phi": P.ravel().tolist(), "weight": None}
 
@@ -130,7 +130,7 @@ def make_job(model: str, *, axes=None, random=None, directions=None, samples: in
     names = [a["name"] for a in axes]
     for k in names:
         if names.count(k) > 1:
-            raise ParameterError(f"axis {k} is given twice")
+            raise ParameterError(f"{called('axis')} {k} is given twice")
         if k in fixed:
             raise ParameterError(f"parameter {k} is given both as an axis and as a fixed value")
     axes = [_check_axis(a, spec, random is not None) for a in axes]
@@ -143,11 +143,13 @@ def make_job(model: str, *, axes=None, random=None, directions=None, samples: in
                                     f"[samples={samples}, 2^40]")
     if target_stderr is not None:
         if isinstance(target_stderr, bool) or not 0 < float(target_stderr) < 1:
-            raise ParameterError(f"target_stderr={target_stderr!r} is out of range: valid is (0, 1)")
+            raise ParameterError(f"{given('target_stderr', target_stderr)} is out of range: valid "
+                                 f"is (0, 1)", "target_stderr")
         target_stderr = float(target_stderr)
     if isinstance(error_rate, bool) or not isinstance(error_rate, (int, float)) or \
             not 0 < float(error_rate) < 0.5:
-        raise ParameterError(f"error_rate={error_rate!r} is out of range: valid error_rate (the "
+        raise ParameterError(f"{given('error_rate', error_rate)} is out of range: valid "
+                             f"{called('error_rate')} (the "
                              f"probability that a point's verdict is wrong) is in (0, 0.5)")
     seed_words(seed)
     # the configuration at a few points of the box checks the fixed parameters and axes together
@@ -166,7 +168,7 @@ def make_job(model: str, *, axes=None, random=None, directions=None, samples: in
         k: (g[:, None] if k in spectral_axes else g) for k, g in zip(probe, grid)})
     unused = [a["name"] for a in axes if a["name"] not in cfg.param_names]
     if unused:
-        raise ParameterError(f"axis {unused[0]} is not a parameter of model {spec.name} with "
+        raise ParameterError(f"{called('axis')} {unused[0]} is not a parameter of model {spec.name} with "
                              f"{', '.join(f'{k}={v}' for k, v in dict(cfg.options).items())}: it "
                              f"uses {', '.join(cfg.param_names)}")
     if width is None:
@@ -214,19 +216,20 @@ def job_difference(old: dict, new: dict) -> str | None:
         if key == "fixed":
             for k in sorted(set(a) | set(b)):
                 if a.get(k) != b.get(k):
-                    return f"fixed parameter {k} differs (store: {a.get(k)!r}, now: {b.get(k)!r})"
+                    return (f"{called('fixed parameter')} {k} differs (store: {a.get(k)!r}, "
+                            f"now: {b.get(k)!r})")
         if key == "axes":
             an, bn = [x["name"] for x in a], [x["name"] for x in b]
             if an != bn:
-                return f"axes differ (store: axes {an}, now: {bn})"
+                return f"{called('axes')} differs (store: axes {an}, now: {bn})"
             for x, y in zip(a, b):
                 if x != y:
                     show = lambda ax: {k: v for k, v in ax.items() if k != "values"} \
                         if "count" in ax else ax
-                    return f"axis {x['name']} differs (store: {show(x)}, now: {show(y)})"
+                    return f"{called('axis')} {x['name']} differs (store: {show(x)}, now: {show(y)})"
         if key == "directions":
-            return f"directions differ (store: {a['spec']!r}, now: {b['spec']!r})"
-        return f"{key} differs (store: {a!r}, now: {b!r})"
+            return f"{called('directions')} differs (store: {a['spec']!r}, now: {b['spec']!r})"
+        return f"{called(key)} differs (store: {a!r}, now: {b!r})"
     return None
 
 

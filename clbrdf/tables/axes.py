@@ -30,7 +30,7 @@ import math
 
 import numpy as np
 
-from ..models.spec import ParameterError, check_int
+from ..models.spec import ParameterError, called, check_int
 
 SPACINGS = ("lin", "log", "sqrt")
 PLACEMENTS = ("nodes", "centres")
@@ -62,16 +62,16 @@ def parse_axis(text: str) -> dict:
     name, sep, rest = text.partition("=")
     name, rest = name.strip(), rest.strip()
     if not sep or not name or not rest:
-        raise ParameterError(f"axis {text!r} is malformed: {FORM}")
+        raise ParameterError(f"{called('axis')} {text!r} is malformed: {FORM}")
 
     def num(s, what):
         try:
             v = float(s)
         except ValueError:
-            raise ParameterError(f"axis {text!r}: {what}={s.strip()!r} is not a number "
+            raise ParameterError(f"{called('axis')} {text!r}: {what}={s.strip()!r} is not a number "
                                  f"({FORM})") from None
         if not math.isfinite(v):
-            raise ParameterError(f"axis {text!r}: {what}={v!r} is not finite")
+            raise ParameterError(f"{called('axis')} {text!r}: {what}={v!r} is not finite")
         return v
     if ":" not in rest:
         return {"name": name, "values": [num(s, "value") for s in rest.split(",")]}
@@ -90,17 +90,17 @@ def parse_axis(text: str) -> dict:
         elif len(nums) < 3 and not ({"spacing", "placement", "min", "max"} & set(ax)):
             nums.append(f)
         else:
-            raise ParameterError(f"axis {text!r}: {f!r} is not a spacing ({', '.join(SPACINGS)}),"
+            raise ParameterError(f"{called('axis')} {text!r}: {f!r} is not a spacing ({', '.join(SPACINGS)}),"
                                  f" a placement ({', '.join(PLACEMENTS)}), min=LO or max=HI "
                                  f"({FORM})")
     if len(nums) not in (2, 3):
-        raise ParameterError(f"axis {text!r} is malformed: {FORM}")
+        raise ParameterError(f"{called('axis')} {text!r} is malformed: {FORM}")
     ax["start"], ax["stop"] = num(nums[0], "START"), num(nums[1], "STOP")
     if len(nums) == 3:
         try:
             ax["count"] = int(nums[2])
         except ValueError:
-            raise ParameterError(f"axis {text!r}: COUNT={nums[2]!r} is not an integer: valid "
+            raise ParameterError(f"{called('axis')} {text!r}: COUNT={nums[2]!r} is not an integer: valid "
                                  f"COUNT is in [1, {MAX_COUNT}]") from None
     return ax
 
@@ -120,7 +120,7 @@ def axis_from_python(name, v) -> dict:
             w = rest.pop()
             ax["placement" if w in PLACEMENTS else "spacing"] = w
         if len(rest) not in (2, 3):
-            raise ParameterError(f"axis {name}={v!r} is malformed: give (start, stop, count[, "
+            raise ParameterError(f"{called('axis')} {name}={v!r} is malformed: give (start, stop, count[, "
                                  f"spacing[, placement]]), (start, stop[, spacing]) with random "
                                  f"points, or a list of values")
         ax["start"], ax["stop"] = float(rest[0]), float(rest[1])
@@ -178,40 +178,40 @@ def check_form(ax: dict, random: bool = False) -> dict:
     placement = ax.get("placement", "nodes")
     is_list = "values" in ax and ax.get("start") is None
     if spacing not in SPACINGS and not (is_list and spacing == "list"):
-        raise ParameterError(f"axis {name}: spacing={spacing!r} is not valid: choose one of "
+        raise ParameterError(f"{called('axis')} {name}: spacing={spacing!r} is not valid: choose one of "
                              f"{', '.join(SPACINGS)}")
     if placement not in PLACEMENTS:
-        raise ParameterError(f"axis {name}: placement={placement!r} is not valid: choose one of "
+        raise ParameterError(f"{called('axis')} {name}: placement={placement!r} is not valid: choose one of "
                              f"{', '.join(PLACEMENTS)}")
     extra = {k: ax[k] for k in ("min", "max") if ax.get(k) is not None}
     for k in extra:
         if not math.isfinite(float(extra[k])):
-            raise ParameterError(f"axis {name}: {k}={extra[k]!r} is not finite")
+            raise ParameterError(f"{called('axis')} {name}: {k}={extra[k]!r} is not finite")
     if is_list:
         if random:
-            raise ParameterError(f"axis {name} is a list of values: random points need a range "
+            raise ParameterError(f"{called('axis')} {name} is a list of values: random points need a range "
                                  f"START:STOP")
         v = np.asarray(ax["values"], dtype=np.float64)
         if v.ndim != 1 or v.size == 0 or not np.all(np.isfinite(v)):
-            raise ParameterError(f"axis {name} must be a non-empty list of finite numbers")
+            raise ParameterError(f"{called('axis')} {name} must be a non-empty list of finite numbers")
         return {"name": name, "values": v.tolist(), "spacing": "list", **extra}
     start, stop = float(ax["start"]), float(ax["stop"])
     if spacing == "log" and (start <= 0 or stop <= 0):
-        raise ParameterError(f"axis {name}: log spacing needs START and STOP > 0, got "
+        raise ParameterError(f"{called('axis')} {name}: log spacing needs START and STOP > 0, got "
                              f"{start if start <= 0 else stop!r}: valid is (0, inf)")
     if spacing == "sqrt" and (start < 0 or stop < 0):
-        raise ParameterError(f"axis {name}: sqrt spacing needs START and STOP >= 0, got "
+        raise ParameterError(f"{called('axis')} {name}: sqrt spacing needs START and STOP >= 0, got "
                              f"{start if start < 0 else stop!r}")
     if random:
         if ax.get("count") is not None:
-            raise ParameterError(f"axis {name}: with random points give START:STOP[:SPACING], "
+            raise ParameterError(f"{called('axis')} {name}: with random points give START:STOP[:SPACING], "
                                  f"not a COUNT ({ax['count']})")
         return {"name": name, "start": start, "stop": stop, "spacing": spacing, **extra}
     count = ax.get("count")
     if count is None:
-        raise ParameterError(f"axis {name}: a grid axis needs a COUNT (START:STOP:COUNT) or "
-                             f"a list of values; or use random points (random=N)")
-    count = check_int(f"axis {name} COUNT", count, 1, MAX_COUNT)
+        raise ParameterError(f"{called('axis')} {name}: a grid axis needs a COUNT (START:STOP:COUNT) or "
+                             f"a list of values; or use random points ({called('random')}=N)")
+    count = check_int(f"{called('axis')} {name} COUNT", count, 1, MAX_COUNT)
     out = {"name": name, "start": start, "stop": stop, "count": count, "spacing": spacing}
     if placement != "nodes":
         out["placement"] = placement

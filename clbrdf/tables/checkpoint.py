@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..models.spec import ParameterError
+from ..models.spec import ParameterError, given, switch
 from ..runtime.albedo import AlbedoPlan, runner, using
 from ..runtime.launch import progress_bar
 from .outputs import lock_dir
@@ -67,7 +67,7 @@ class Checkpoint:
                               if old.get(k) != fingerprint.get(k))
                 raise ParameterError(f"cannot resume from {str(self.path)!r}: computation {i} "
                                      f"differs in {', '.join(diff)} (another device, width or "
-                                     f"version?); run with resume=False to start again")
+                                     f"version?); run {switch('resume', False)} to start again")
         else:
             _write_atomic(f, lambda p: p.write_text(text))
         return i
@@ -152,15 +152,15 @@ def checkpoint(path, job: dict, *, resume: bool = False):
             pass
     if not path.is_dir():
         if resume:
-            raise ParameterError(f"resume=True: nothing to resume at {str(path)!r} (no "
-                                 f"earlier run left one); run with resume=False")
+            raise ParameterError(f"{given('resume', True)}: nothing to resume at {str(path)!r} "
+                                 f"(no earlier run left one); run {switch('resume', False)}")
         raise ParameterError(f"{str(path)!r} is in the way of the checkpoint (not a directory)")
     fd = lock_dir(path)
     try:
         if resume:
             if not (path / "job.json").exists():
-                raise ParameterError(f"resume=True: nothing to resume at {str(path)!r} (no "
-                                     f"earlier run left one); run with resume=False")
+                raise ParameterError(f"{given('resume', True)}: nothing to resume at {str(path)!r} "
+                                     f"(no earlier run left one); run {switch('resume', False)}")
             old = json.loads((path / "job.json").read_text())
             if old != json.loads(text):
                 diff = sorted(k for k in set(old) | set(job) if old.get(k) != job.get(k))
@@ -171,7 +171,8 @@ def checkpoint(path, job: dict, *, resume: bool = False):
             done = len(list(path.glob("call*.c*.npz")))
             raise ParameterError(f"an interrupted run left its checkpoint at {str(path)!r} "
                                  f"({done} finished chunks): continue it with the same arguments "
-                                 f"and resume=True, or remove that directory to start again")
+                                 f"and {given('resume', True)}, or remove that directory to start "
+                                 f"again")
         else:
             _write_atomic(path / "job.json", lambda p: p.write_text(text))
         ck = Checkpoint(path)

@@ -21,7 +21,7 @@ from ..api.albedo import (
 from ..api.model import Model
 from ..models import get_spec
 from ..models.choices import MAX_GROWTH
-from ..models.spec import ParameterError, check_int, check_mu, finite_or_raise
+from ..models.spec import ParameterError, called, check_int, check_mu, finite_or_raise, given
 from ..runtime.launch import derive_seed, environment
 from ..runtime.quadrature import QUAD_MAX_EVALS
 from ..version import __version__
@@ -47,10 +47,10 @@ def table_axes(spec, axes, fixed=None, precision: str = "single", spacing=None) 
         if k not in ("mu", "phi") and k not in ax_mod.MAPPED and k not in pnames:
             opts = [o.name for o in spec.options]
             why = "an option: give it as a fixed argument" if k in opts else "not a parameter"
-            raise ParameterError(f"axis {k!r} of model {spec.name} is {why}; axes are mu, theta, "
+            raise ParameterError(f"{called('axis')} {k!r} of model {spec.name} is {why}; axes are mu, theta, "
                                  f"phi, r and the parameters {', '.join(pnames)}")
         if k == "r" and "alpha" not in pnames:
-            raise ParameterError(f"axis r (alpha = r^2) needs a model with a parameter alpha; "
+            raise ParameterError(f"{called('axis')} r (alpha = r^2) needs a model with a parameter alpha; "
                                  f"{spec.name} has {', '.join(pnames)}")
         if isinstance(v, (dict, str, tuple)):
             ax = ax_mod.axis_from_python(k, v)
@@ -58,25 +58,25 @@ def table_axes(spec, axes, fixed=None, precision: str = "single", spacing=None) 
             try:
                 a = np.asarray(v, dtype=np.float64)
             except (TypeError, ValueError):
-                raise ParameterError(f"axis {k}={v!r} is not valid: values must be numbers") \
+                raise ParameterError(f"{called('axis')} {k}={v!r} is not valid: values must be numbers") \
                     from None
             if a.ndim != 1 or a.size == 0:
-                raise ParameterError(f"axis {k} must be a non-empty 1-D list of numbers, got "
+                raise ParameterError(f"{called('axis')} {k} must be a non-empty 1-D list of numbers, got "
                                      f"shape {a.shape}")
-            finite_or_raise(f"axis {k}", a)
+            finite_or_raise(f"{called('axis')} {k}", a)
             ax = {"name": k, "values": a.tolist()}
         try:
             ax = ax_mod.check_form(ax)
         except ParameterError as e:
-            why = str(e).removeprefix(f"axis {k}: ")
-            raise ParameterError(f"axis {ax_mod.axis_text(ax)}: {why}") from None
+            why = str(e).removeprefix(f"{called('axis')} {k}: ")
+            raise ParameterError(f"{called('axis')} {ax_mod.axis_text(ax)}: {why}") from None
         if (spacing or {}).get(k) and ax["spacing"] == "list":
             ax["spacing"] = spacing[k]      # values made by the caller with this spacing
         out.append(ax)
     names = [a["name"] for a in out]
     if sum(n in ax_mod.VIEW for n in names) != 1:
-        raise ParameterError("a table needs one axis of the outgoing direction: mu (mu="
-                             "START:STOP:COUNT), theta (radians, mu = cos theta) or sqrt1m_mu "
+        raise ParameterError("a table needs one axis of the outgoing direction: mu ("
+                             f"{called('axis')} mu=START:STOP:COUNT), theta (radians, mu = cos theta) or sqrt1m_mu "
                              "(mu = 1 - v^2)")
     if "r" in names and "alpha" in names:
         raise ParameterError("give axis r (alpha = r^2) or axis alpha, not both")
@@ -97,7 +97,7 @@ def table_axes(spec, axes, fixed=None, precision: str = "single", spacing=None) 
                     or ax.get("spacing") == "list" else
                     "; an axis can keep its values and be evaluated at max(value, LO) with "
                     ":min=LO, or at min(value, HI) with :max=HI")
-            raise ParameterError(f"axis {ax_mod.axis_text(ax)}: {e}{hint}") from None
+            raise ParameterError(f"{called('axis')} {ax_mod.axis_text(ax)}: {e}{hint}") from None
     return out
 
 
@@ -152,9 +152,10 @@ def _refine(est, err, scale, shape, run, samples, target, max_samples, seed, pre
     missed = worst > target
     if missed.any():
         warnings.warn(
-            f"target_stderr={target:g} not reached in {int(missed.sum())} of {missed.size} "
-            f"{what} at max_samples={max_samples} (standard error with what that many samples "
-            f"cannot resolve up to {float(worst.max()):.2g}); raise max_samples", TargetStderrWarning, stacklevel=3)
+            f"{called('target_stderr')}={target:g} not reached in {int(missed.sum())} of "
+            f"{missed.size} {what} at {called('max_samples')}={max_samples} (standard error "
+            f"with what that many samples cannot resolve up to {float(worst.max()):.2g}); raise "
+            f"{called('max_samples')}", TargetStderrWarning, stacklevel=3)
     return e2.reshape(est.shape), eff.reshape(err.shape), n.reshape(shape)
 
 
@@ -193,18 +194,20 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
     axl = table_axes(spec, axes, fixed, precision, spacing)
     if target_stderr is not None:
         if estimator == "quadrature":
-            raise ParameterError("target_stderr is for the Monte Carlo estimators; the "
-                                 "quadrature's target is tol")
+            raise ParameterError(f"{called('target_stderr')} is for the Monte Carlo "
+                                 f"estimators; the quadrature's target is {called('tol')}",
+                                 "target_stderr")
         if isinstance(target_stderr, bool) or not 0 < float(target_stderr) < 1:
-            raise ParameterError(f"target_stderr={target_stderr!r} is out of range: valid is "
-                                 f"(0, 1)")
+            raise ParameterError(f"{given('target_stderr', target_stderr)} is out of range: "
+                                 f"valid is (0, 1)", "target_stderr")
         samples = check_int("samples", samples, 2, 2**32 - 1, "[2, 2^32)")
         max_samples = check_int("max_samples", MAX_GROWTH * samples if max_samples is None
                                         else max_samples, samples, 2**32 - 1,
-                                        f"[samples={samples}, 2^32)")
+                                        f"[{given('samples', samples)}, 2^32)")
     elif max_samples is not None:
-        raise ParameterError("max_samples is the cap of target_stderr's refinement: give "
-                             "target_stderr too")
+        raise ParameterError(f"{called('max_samples')} is the cap of "
+                             f"{called('target_stderr')}'s refinement: give "
+                             f"{called('target_stderr')} too", "max_samples")
     names = [a["name"] for a in axl]
     evals = {a["name"]: ax_mod.evaluated(a) for a in axl}
     model_name = {a["name"]: ax_mod.MAPPED[a["name"]][0] if a["name"] in ax_mod.MAPPED

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..models.spec import ParameterError
+from ..models.spec import ParameterError, given
 from .chart import figure_png
 from .cheader import c_header
 from .outputs import probe_directory, remove_stale, tmp_prefix, write_together
@@ -32,19 +32,21 @@ def check_out(out, suffixes=SUFFIXES, what: str = "tables") -> Path:
     .exr needs OpenEXR. Raises ParameterError naming ``out``."""
     out = Path(out)
     if out.suffix.lower() not in suffixes:
-        raise ParameterError(f"out={str(out)!r}: unknown output suffix {out.suffix!r}: {what} "
-                             f"are written as {', '.join(suffixes)}")
+        raise ParameterError(f"{given('out', str(out))}: unknown output suffix "
+                             f"{out.suffix!r}: {what} are written as {', '.join(suffixes)}", "out")
     companions = [chart_path(out)] + ([out.with_suffix(".avg.csv")]
                                       if out.suffix.lower() == ".csv" else [])
     for p in [out] + companions:
         if p.is_dir():
-            raise ParameterError(f"out={str(out)!r}: {str(p)!r} is a directory; give a file name")
+            raise ParameterError(f"{given('out', str(out))}: {str(p)!r} is a directory; "
+                                 f"give a file name", "out")
         if p.exists() and not os.access(p, os.W_OK):
-            raise ParameterError(f"out={str(out)!r}: {str(p)!r} is not writable")
+            raise ParameterError(f"{given('out', str(out))}: {str(p)!r} is not writable",
+                                 "out")
     try:
         probe_directory(out)
     except ValueError as e:
-        raise ParameterError(f"out={str(out)!r}: {e}") from None
+        raise ParameterError(f"{given('out', str(out))}: {e}", "out") from None
     if out.suffix.lower() == ".exr":
         openexr()               # before any work
     return out
