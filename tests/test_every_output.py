@@ -48,10 +48,11 @@ CASES = {
     "layout-float32": (["table", "--layout", "eevee", "-n", "64"], TABLE_SUFFIXES),
     "ltc": (["ltc", "ggx", "--axis", "mu=0.2:1:3", "--axis", "r=0.2:1:3", "-n", "64",
              "--report-samples", "256"], TABLE_SUFFIXES),
-    "ltc-threejs": (["ltc", "--layout", "threejs", "-n", "64", "--report-samples", "256"],
+    "ltc-threejs": (["ltc", "--layout", "threejs", "-n", "64", "--report-samples", "256",
+                     "--magnitude-tol", "1e-4"],
                     tuple(ltc_layouts()["threejs"]["formats"])),
     "ltc-cycles_sheen": (["ltc", "--layout", "cycles_sheen", "-n", "64", "--report-samples",
-                          "256"], tuple(ltc_layouts()["cycles_sheen"]["formats"])),
+                          "256", "--magnitude-tol", "1e-4"], tuple(ltc_layouts()["cycles_sheen"]["formats"])),
 }
 
 

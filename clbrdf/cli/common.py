@@ -234,7 +234,7 @@ FLAGS = {
     "max_samples": "--max-samples", "target_stderr": "--target-stderr", "tol": "--tol",
     "max_evals": "--max-evals", "error_rate": "--error-rate", "seed": "--seed",
     "precision": "--precision", "width": "--width", "chunk": "--chunk",
-    "report_samples": "--report-samples",
+    "report_samples": "--report-samples", "magnitude_tol": "--magnitude-tol",
 }
 
 

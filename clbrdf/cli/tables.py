@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..models.choices import MAX_GROWTH
+from ..models.choices import MAGNITUDE_TOL, MAX_GROWTH
 from ..models.spec import ParameterError
 from ..tables.catalog import get_layout, layouts, ltc_layouts
 from .common import (
@@ -317,6 +317,7 @@ def cmd_ltc(args) -> int:
                              "its parameters with --param")
     cmd = " ".join(["clbrdf"] + [quote(a) for a in args.argv])
     kw = dict(samples=args.samples, report_samples=args.report_samples, seed=args.seed,
+              magnitude_tol=args.magnitude_tol,
               precision=args.precision, device=args.device, width=args.width, command=cmd)
     t0 = time.perf_counter()
     if args.layout:
@@ -446,6 +447,9 @@ def add_parsers(sub) -> None:
     p.add_argument("--report-samples", type=int, default=1 << 16, metavar="N",
                    help="Philox samples of the lobe's moments and the reported errors (default 2^16; "
                         "E and B are the deterministic quadrature's, to 2e-7)")
+    p.add_argument("--magnitude-tol", type=float, default=MAGNITUDE_TOL, metavar="T",
+                   help=f"error target of E and B, the deterministic quadrature's (default "
+                        f"{MAGNITUDE_TOL:g})")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--precision", choices=("single", "double"), default="single")
     p.add_argument("--width", type=int, default=None, help="lanes per work-item")

@@ -37,7 +37,8 @@ import numpy as np
 
 from ..api.model import Model
 from ..models import get_spec
-from ..models.spec import ParameterError, check_int
+from ..models.choices import MAGNITUDE_TOL
+from ..models.spec import ParameterError, check_int, given
 from ..runtime.launch import derive_seed, environment
 from ..api.albedo import QUAD_TOL
 from ..runtime.ltc import LTCRunner
@@ -240,12 +241,18 @@ def _canonical(minv):
     return minv
 
 
-MAGNITUDE_TOL = 2e-7        # the quadrature's error target of E and B (double precision)
 B_RELATIVE = 1e-2           # and of B, relative to B's first value, down to B_FLOOR
-B_FLOOR = 1e-11
+B_FLOOR = 1e-11             # (or 1e-4 of a larger target)
 
 
-def magnitudes(m, wo, config: dict):
+def check_magnitude_tol(tol) -> float:
+    if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 1e-9 <= tol <= 1e-2:
+        raise ParameterError(f"{given('magnitude_tol', tol)} is out of range: valid is [1e-9, "
+                             f"1e-2] (the quadrature's error target of E and B)", "magnitude_tol")
+    return float(tol)
+
+
+def magnitudes(m, wo, config: dict, tol: float = MAGNITUDE_TOL):
     """(E, E_err, B, B_err, how) of model m (built from ``config``: one channel, one cell per row
     of wo): the magnitude E = int f cos dwi and the Schlick split's B = int f cos (1 - wo.h)^5
     dwi by the deterministic quadrature (clbrdf/runtime/quadrature.py) in double precision where
@@ -263,12 +270,13 @@ def magnitudes(m, wo, config: dict):
     double = m.device.info.has_fp64
     q = Model(m.name, precision="double", device=m.device, **config) \
         if double and m.precision != "double" else m
-    tol = MAGNITUDE_TOL if q.precision == "double" else QUAD_TOL["single"]
+    tol = tol if q.precision == "double" else max(tol, QUAD_TOL["single"])
     rows, shape = [wo[:, 0], wo[:, 1], wo[:, 2]], (len(wo),)
     run_quadrature = quadrature_runner()
     E, E_err, _, t_e = run_quadrature(q, shape, rows, tol=tol)
     B0, _, _, t_0 = run_quadrature(q, shape, rows, tol=tol, integrand="schlick")
-    tol_b = np.clip(B_RELATIVE * B0[:, 0], B_FLOOR if q.precision == "double" else 1e-9, tol)
+    floor = max(B_FLOOR if q.precision == "double" else 1e-9, tol * 1e-4)
+    tol_b = np.clip(B_RELATIVE * B0[:, 0], floor, tol)
     B, B_err, _, t_b = run_quadrature(q, shape, rows, tol=tol_b, integrand="schlick")
     for what, err, target in (("E", E_err[:, 0], tol), ("B", B_err[:, 0], tol_b)):
         if np.any(err > target):
@@ -286,7 +294,8 @@ class _Cells:
     and the lobe's moments (E, B, the frame and the moment-matched start) from ``N`` Philox
     samples per cell."""
 
-    def __init__(self, name, axes, fixed, precision, device, width, N, seed):
+    def __init__(self, name, axes, fixed, precision, device, width, N, seed,
+                 magnitude_tol=MAGNITUDE_TOL):
         spec = get_spec(name)
         if spec.transmits:
             raise ParameterError(f"fit_ltc: {name} transmits; an LTC approximates a reflection "
@@ -318,7 +327,7 @@ class _Cells:
         # the magnitudes E and B by the deterministic quadrature (``magnitudes``); the samples'
         # moments give the frame and the start
         self.E, self.E_se, self.B, self.B_se, self.how = magnitudes(
-            m, self.wo, {**fixed, **self.params})
+            m, self.wo, {**fixed, **self.params}, magnitude_tol)
         # an empty cell: no sample of the lobe contributed (Charlie at alpha 1e-3 and mu >= 0.5,
         # where E < 1e-150); it is fitted as the cosine's (finite throughout) and then stored as
         # M^-1 = I, its E and B and errors 0 (``table``)
@@ -445,7 +454,7 @@ class _Cells:
 def fit_ltc(name: str, axes: dict, *, samples: int = 1024, report_samples: int = 1 << 16,
             seed: int = 0, precision: str = "single", device=None, width: int | None = None,
             max_iter: int = 600, restarts: int = 1, form: str = "general",
-            command: str | None = None, **fixed):
+            magnitude_tol: float = MAGNITUDE_TOL, command: str | None = None, **fixed):
     """A table of LTC fits over the grid of ``axes`` (as ``clbrdf.albedo_table`` takes them: a
     view axis ``mu``, ``theta`` or ``sqrt1m_mu``, ``phi`` (wo's azimuth), ``r`` or ``alpha``
     and any numeric parameter, alpha_x and alpha_y of an anisotropic model included), with
@@ -456,7 +465,7 @@ def fit_ltc(name: str, axes: dict, *, samples: int = 1024, report_samples: int =
     F0: E(F0) = F0 (E - B) + B), the fit's ``L3`` error and the relative ``L1`` error, each with
     its ``_stderr`` (module docstring). ``samples``: quasi-random samples per loss evaluation
     (a multiple of 16); ``report_samples``: Philox samples of the lobe's moments and the reported
-    errors (E and B are the quadrature's);
+    errors (E and B are the quadrature's, to ``magnitude_tol``: ``magnitudes``);
     ``max_iter``: Nelder-Mead iterations per cell and run, at most; ``restarts``: further runs
     from the best point; ``form``: "general" (the 4 or 6 free entries) or "zeltner" (the
     two-parameter LTC of Zeltner et al. 2022, module docstring)."""
@@ -468,8 +477,10 @@ def fit_ltc(name: str, axes: dict, *, samples: int = 1024, report_samples: int =
     report_samples = check_int("report_samples", report_samples, 16, 1 << 28, "[16, 2^28]")
     max_iter = check_int("max_iter", max_iter, 1, 100000)
     restarts = check_int("restarts", restarts, 0, 100)
+    magnitude_tol = check_magnitude_tol(magnitude_tol)
     t0 = time.perf_counter()
-    c = _Cells(name, axes, fixed, precision, device, width, report_samples, seed)
+    c = _Cells(name, axes, fixed, precision, device, width, report_samples, seed,
+               magnitude_tol)
     t1 = time.perf_counter()
     runner = LTCRunner(c.model, c.wo, "sobol")
 
@@ -531,11 +542,13 @@ def fit_ltc(name: str, axes: dict, *, samples: int = 1024, report_samples: int =
 
 
 def ltc_errors(name: str, axes: dict, minv, *, report_samples: int = 1 << 16, seed: int = 0,
-               precision: str = "single", device=None, width: int | None = None, **fixed):
+               precision: str = "single", device=None, width: int | None = None,
+               magnitude_tol: float = MAGNITUDE_TOL, **fixed):
     """The errors of given LTCs (``minv`` (..., 3, 3) over the grid of ``axes``, e.g. a shipped
     table's) under fit_ltc's metrics, with the same samples fit_ltc reports with: a Table as
     fit_ltc's, with these matrices."""
-    c = _Cells(name, axes, fixed, precision, device, width, report_samples, seed)
+    c = _Cells(name, axes, fixed, precision, device, width, report_samples, seed,
+               check_magnitude_tol(magnitude_tol))
     minv = np.asarray(minv, float).reshape(c.n, 3, 3)
     return c.table(minv, c.errors(minv), {"fit": "given matrices"})
 
