@@ -23,26 +23,37 @@ class ParameterError(ValueError):
         self.param = param
 
 
+class Setting:
+    """A value in effect for a block of code and what it calls (a ``contextvars.ContextVar``):
+    ``setting.get()`` (``default`` outside any block), ``with setting.using(value):``."""
+
+    def __init__(self, name: str, default=None):
+        self._var = contextvars.ContextVar(name, default=None)
+        self.default = default
+
+    def get(self):
+        value = self._var.get()
+        return self.default if value is None else value
+
+    @contextlib.contextmanager
+    def using(self, value):
+        token = self._var.set(value)
+        try:
+            yield value
+        finally:
+            self._var.reset(token)
+
+
 # how a message names a parameter: its Python name, or the caller's (the command line's flags,
-# clbrdf/cli/common.py FLAGS) inside ``spelling``
-_SPELLING: contextvars.ContextVar = contextvars.ContextVar("clbrdf_spelling", default=None)
-
-
-@contextlib.contextmanager
-def spelling(names: dict):
-    """Inside the block, messages name a parameter as ``names`` does (name -> its spelling)."""
-    token = _SPELLING.set(names)
-    try:
-        yield
-    finally:
-        _SPELLING.reset(token)
+# clbrdf/cli/common.py FLAGS) inside ``spelling(names)``
+_SPELLING = Setting("clbrdf_spelling", {})
+spelling = _SPELLING.using
 
 
 def called(name: str) -> str:
     """Parameter ``name`` as the caller calls it (``spelling``): ``max_samples``, or inside the
     command line ``--max-samples``."""
-    names = _SPELLING.get()
-    return names.get(name, name) if names else name
+    return _SPELLING.get().get(name, name)
 
 
 def given(name: str, value) -> str:

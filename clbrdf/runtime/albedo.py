@@ -11,14 +11,12 @@ installs (clbrdf.tables.checkpoint runs it chunk by chunk and saves each chunk).
 """
 from __future__ import annotations
 
-import contextlib
-import contextvars
 import math
 import time
 
 import numpy as np
 
-from ..models.spec import ParameterError
+from ..models.spec import ParameterError, Setting
 from . import build
 from .launch import kernel, ndrange, ndrange_with, progress_bar, seed_words
 
@@ -259,20 +257,8 @@ def run_probe(m, shape, wo_rows, *, estimator: str, qmc: bool):
 # ---------------------------------------------------------------------------------------------
 
 
-_RUNNER: contextvars.ContextVar = contextvars.ContextVar("clbrdf_albedo_runner", default=None)
-
-
-def runner():
-    """The albedo driver in effect: ``run_albedo`` unless a ``using`` block installed another
-    with the same signature."""
-    return _RUNNER.get() or run_albedo
-
-
-@contextlib.contextmanager
-def using(run):
-    """Make ``run`` the albedo driver of the API's Monte Carlo calls inside the block."""
-    token = _RUNNER.set(run)
-    try:
-        yield run
-    finally:
-        _RUNNER.reset(token)
+# the albedo driver of the API's Monte Carlo calls: ``runner()`` is ``run_albedo`` unless a
+# ``with using(run):`` block installed another with the same signature (a checkpoint's, a
+# cluster's)
+_RUNNER = Setting("clbrdf_albedo_runner", run_albedo)
+runner, using = _RUNNER.get, _RUNNER.using

@@ -2,14 +2,13 @@
 """
 from __future__ import annotations
 
-import contextlib
-import contextvars
 import math
 import time
 
 import numpy as np
 from numpy.polynomial import legendre as L
 
+from ..models.spec import Setting
 from .albedo import LAUNCH_SECONDS
 from .launch import kernel, ndrange, ndrange_with, progress_bar
 
@@ -222,20 +221,7 @@ def run_quadrature(m, shape, wo_rows, *, tol: float, max_evals: int = QUAD_MAX_E
     return E, err, evals, time.perf_counter() - t0
 
 
-_RUNNER: contextvars.ContextVar = contextvars.ContextVar("clbrdf_quadrature_runner", default=None)
-
-
-def quadrature_runner():
-    """The quadrature driver in effect: ``run_quadrature`` unless a ``using_quadrature`` block
-    installed another with the same signature (a cluster's: clbrdf/studies/cluster.py)."""
-    return _RUNNER.get() or run_quadrature
-
-
-@contextlib.contextmanager
-def using_quadrature(run):
-    """Make ``run`` the driver of the quadrature calls inside the block."""
-    token = _RUNNER.set(run)
-    try:
-        yield run
-    finally:
-        _RUNNER.reset(token)
+# the quadrature's driver: ``quadrature_runner()`` is ``run_quadrature`` unless a ``with
+# using_quadrature(run):`` block installed another with the same signature (a cluster's)
+_RUNNER = Setting("clbrdf_quadrature_runner", run_quadrature)
+quadrature_runner, using_quadrature = _RUNNER.get, _RUNNER.using
