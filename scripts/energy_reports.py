@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 
 import clbrdf
-from clbrdf.models.presets import _label, load, sources
+from clbrdf.models.presets import load, source_label, sources
 from clbrdf.studies.report import report
 from clbrdf.studies.sweep import sweep
 
@@ -118,7 +118,7 @@ def presets(tmp, out, samples):
     total = {}
     for model, srcs in sources().items():
         for src, _ in srcs:
-            label = _label(src)
+            label = source_label(src)
             counts = {"gains": 0, "conserves": 0, "undecided": 0}
             worst = None
             mats = sorted(load(src))

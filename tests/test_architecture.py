@@ -194,3 +194,30 @@ def test_a_command_that_answers_at_once_imports_nothing_heavy(tmp_path):
         assert r.returncode == rc, (argv, r.stderr)
         line = [x for x in r.stdout.splitlines() if x.startswith("HEAVY")]
         assert line == ["HEAVY []"], (argv, line)
+
+
+def private_imports(package: Path = PACKAGE) -> list:
+    """``from M import _name`` of another module's private name (an ``as _alias`` of a public
+    name is the importer's own)."""
+    bad = []
+    for mod, path in modules(package).items():
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.ImportFrom) and (node.level or (node.module or "").startswith("clbrdf")):
+                bad += [f"{mod}:{node.lineno} imports {a.name}" for a in node.names
+                        if a.name.startswith("_") and not a.name.startswith("__")]
+    return bad
+
+
+def test_no_module_imports_another_modules_private_names():
+    bad = private_imports()
+    assert not bad, "\n".join(bad)
+
+
+def test_the_private_name_check_can_fail(tmp_path):
+    pkg = tmp_path / "clbrdf"
+    (pkg / "api").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "api" / "__init__.py").write_text("")
+    (pkg / "api" / "a.py").write_text("def _f():\n    pass\n")
+    (pkg / "api" / "b.py").write_text("from .a import _f\nfrom . import a as _a\n")
+    assert private_imports(pkg) == ["clbrdf.api.b:1 imports _f"]

@@ -321,3 +321,36 @@ def test_older_ltc_layout_files_load():
     t = load_tables(data / "ltc_threejs_0.1.npz")
     assert t["LTC_MAT_2"].shape == (3, 4) and t["LTC_MAT_2"].quantity == ["E", "B", "zero", "sphere"]
     assert np.array_equal(t["LTC_MAT_2"]["E"], t["ltc"]["E"])
+
+
+@pytest.mark.smoke
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not installed")
+def test_small_texture_files_read_back(tmp_path):
+    """The quick tier's .js (and texture .h, .exr): the threejs textures of a 3 x 4 GGX fit,
+    written by save_tables and read back by Node, gcc and OpenEXR against the .npz (the full
+    layouts are test_every_ltc_layout_file_holds_the_npz_textures's)."""
+    from clbrdf import save_tables
+    from clbrdf.tables.ltc import fit_ltc
+    from clbrdf.tables.textures import textures
+    fit = fit_ltc("ggx", {"sqrt1m_mu": "0:0.9:3", "r": "0.2:1:4"}, samples=64,
+                  report_samples=256, magnitude_tol=1e-4)
+    tables = {"ltc": fit, **textures("threejs", fit)}
+    outs = [tmp_path / "t.npz", tmp_path / "t.js", tmp_path / "t.h"]
+    try:
+        import OpenEXR  # noqa: F401
+        outs.append(tmp_path / "t.exr")
+    except ImportError:
+        pass
+    save_tables(tables, outs, chart=False)
+    back = load_tables(outs[0])
+    tex = {k: np.float32(back[k].values) for k in ("LTC_MAT_1", "LTC_MAT_2")}
+    for k in tex:
+        assert np.array_equal(tex[k], np.float32(tables[k].values)), k
+    got = {".h": _c_textures(outs[2], tex, False, tmp_path)}
+    if shutil.which("node"):
+        got[".js"] = node_textures(outs[1], list(tex), tmp_path)
+    if len(outs) > 3:
+        got[".exr"] = _exr_textures(outs[3], back)[0]
+    for suffix, g in got.items():
+        for k, v in tex.items():
+            assert np.array_equal(g[k], v), (suffix, k)

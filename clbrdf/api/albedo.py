@@ -11,11 +11,11 @@ import numpy as np
 
 from ..models.microfacet import FRESNEL_NAMES
 from ..models.choices import ESTIMATORS, MC_ESTIMATORS
-from ..models.spec import ParameterError, check_int, check_mu, finite_or_raise, given
+from ..models.spec import ParameterError, check_choice, check_int, check_mu, finite_or_raise, given
 from ..runtime.albedo import run_probe, runner
 from ..runtime.launch import seed_words
 from ..runtime.quadrature import QUAD_MAX_EVALS, quadrature_runner
-from .model import Model, _check_choice
+from .model import Model
 from .useless import warn_if_useless
 
 QUAD_TOL = {"single": 1e-6, "double": 1e-7}     # default error target of the quadrature
@@ -62,7 +62,7 @@ class AlbedoResult:
                    {"tol": self.tol, "evaluations": np.asarray(self.evaluations).tolist()})}
 
 
-def _as_model(m) -> Model:
+def as_model(m) -> Model:
     """A Model, or a model's name (its defaults, single precision)."""
     if isinstance(m, str):
         return Model(m)
@@ -90,8 +90,8 @@ def albedo(m: Model | str, mu, phi=0.0, *, estimator: str = "brdf", samples: int
     The result is bit-identical for the same arguments, device kind and width, whatever the
     chunking or work-group size. Host memory does not grow with ``samples``.
     """
-    m = _as_model(m)
-    _check_choice("estimator", estimator, ESTIMATORS)
+    m = as_model(m)
+    check_choice("estimator", estimator, ESTIMATORS)
     quad = estimator == "quadrature"
     if quad:
         if qmc:
@@ -221,7 +221,7 @@ GAUSS_NODES = 32
 PHI_NODES = 16      # azimuths of wo in averages of anisotropic models (periodic trapezoid rule)
 
 
-def _avg_rule(nodes: int, phi_nodes: int):
+def avg_rule(nodes: int, phi_nodes: int):
     """Nodes (mu, phi) and weights of E_avg = (1 / pi) int_0^2pi int_0^1 E(mu, phi) mu dmu dphi:
     Gauss-Legendre in mu; in phi the periodic trapezoid rule (spectrally accurate for a smooth
     periodic E), or phi = 0 alone for an isotropic model."""
@@ -276,10 +276,10 @@ def albedo_avg(m: Model | str, *, nodes: int = GAUSS_NODES, phi_nodes: int | Non
     ``estimator='quadrature'``, the sum of the weighted error estimates), not the rule's error in
     mu and phi: the nodes' sampling errors in quadrature and, with it in quadrature, the unseen-
     event allowance of the weighted sum of their weight scales (``unseen``)."""
-    m = _as_model(m)
+    m = as_model(m)
     if phi_nodes is None:
         phi_nodes = PHI_NODES if m.anisotropic else 1
-    mu, phi, c = _avg_rule(nodes, phi_nodes)
+    mu, phi, c = avg_rule(nodes, phi_nodes)
     pshape = m.points_shape()
     kinks = m.spec.mu_kinks(m.config, m.params)
     if kinks is not None:

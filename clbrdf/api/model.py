@@ -9,17 +9,11 @@ import numpy as np
 
 from ..models import get_spec, presets
 from ..models.choices import PRECISIONS, WIDTHS
-from ..models.spec import ParameterError, check_directions, check_int
+from ..models.spec import ParameterError, check_choice, check_directions, check_int
 from ..runtime.bound import Bound
 from ..runtime.device import Device, get_device
 from ..runtime.launch import kernel, ndrange, seed_words, working_width
 
-
-
-def _check_choice(name, value, choices):
-    if value not in choices:
-        raise ParameterError(f"{name}={value!r} is not valid: choose one of {', '.join(choices)}")
-    return value
 
 
 class Model(Bound):
@@ -45,7 +39,7 @@ class Model(Bound):
             params = {**self.preset.options, **self.preset.params, **params}
             channels = 3 if channels is None else channels
         config, params = self.spec.configure(channels=channels or 1, **params)
-        _check_choice("precision", precision, PRECISIONS)
+        check_choice("precision", precision, PRECISIONS)
         dev: Device = get_device(device)
         width = working_width(dev, precision) if width is None else width
         if isinstance(width, bool) or width not in WIDTHS:

@@ -19,7 +19,7 @@ import numpy as np
 from ..models.spec import ParameterError, check_directions, check_int, check_mu, finite_or_raise
 from ..runtime.launch import seed_words
 from ..runtime.walk import ORDERS, walk_batch, walk_sums
-from .albedo import _as_model
+from .albedo import as_model
 from .model import Model
 
 # model -> the options its configuration must have for the walk to extend it
@@ -98,7 +98,7 @@ def walk_albedo(m: Model | str, mu, phi=0.0, *, walks: int = 1 << 20, seed: int 
     split by scattering order (1, 2, 3+) and by side. ``mu`` (negative: from below, for the
     dielectric) and ``phi`` broadcast with the model's parameters. Walk j of point p is keyed
     (seed, j, p): the result is bit-identical for the same arguments, device kind and width."""
-    m = _as_model(m)
+    m = as_model(m)
     check_walk_model(m)
     walks = check_int("walks", walks, 2, 2**32 - 1, "[2, 2^32)")
     max_order = check_int("max_order", max_order, 1, 1 << 20, "[1, 2^20]")
@@ -155,7 +155,7 @@ def walk_eval(m: Model | str, wo, wi, *, walks: int = 1 << 16, seed: int = 0,
     (masking=correlated) in expectation. ``wo``, ``wi`` (..., 3), above the surface, broadcast
     with the parameters. Conductors (ggx, beckmann) only: the dielectric's evaluation is not in
     the kernels. Walk j of pair p is keyed (seed, j, p), as walk_albedo's."""
-    m = _as_model(m)
+    m = as_model(m)
     check_walk_model(m)
     if m.spec.transmits:
         raise ParameterError(f"model={m.name!r}: the stochastic evaluation in the kernels is for "
@@ -191,7 +191,7 @@ def walk_sample(m: Model | str, wo, *, seed: int = 0, stream: int = 0, first: in
     (wi, weight, order): the direction it leaves along (NaN where cut at ``max_order``), its
     throughput (per channel; 0 where cut), its number of hits (the scattering order; 0 where
     cut). Walk first + i is keyed (seed, first + i, stream)."""
-    m = _as_model(m)
+    m = as_model(m)
     check_walk_model(m)
     wo = check_directions("wo", wo, allow_below=m.spec.transmits)
     max_order = check_int("max_order", max_order, 1, 1 << 20, "[1, 2^20]")

@@ -113,7 +113,7 @@ def load(source: str) -> dict[str, dict]:
     return fits
 
 
-def _label(source: str) -> str:
+def source_label(source: str) -> str:
     """Short name of a source: the E1/E2 metric of Löw's fits, else the file stem."""
     m = re.search(r"_(E\d)\.", source)
     return m.group(1) if m else Path(source).stem
@@ -159,10 +159,10 @@ def get(model: str, material: str) -> Preset:
         raise ParameterError(f"model {model} has no presets; models with presets: {have}")
     name, _, which = material.partition(":")
     if which:
-        pick = [s for s in src if which in (s[0], _label(s[0]), Path(s[0]).stem)]
+        pick = [s for s in src if which in (s[0], source_label(s[0]), Path(s[0]).stem)]
         if not pick:
             raise ParameterError(f"preset source {which!r} is not valid for {model}: choose one of "
-                                 f"{', '.join(_label(s) for s, _ in src)}")
+                                 f"{', '.join(source_label(s) for s, _ in src)}")
         source, fn = pick[0]
     else:      # the default source, else the first other source that has the material
         source, fn = next(((s, f) for s, f in src if name in load(s)), src[0])
@@ -180,7 +180,7 @@ def summary() -> dict[str, dict]:
     """Model -> {"sources": [{file, label, attribution, materials}], "materials": [...]}."""
     out = {}
     for model, src in sorted(sources().items()):
-        out[model] = {"sources": [{"file": s, "label": _label(s), "attribution": ATTRIBUTION.get(s, s),
+        out[model] = {"sources": [{"file": s, "label": source_label(s), "attribution": ATTRIBUTION.get(s, s),
                                    "materials": len(load(s))} for s, _ in src],
                       "materials": materials(model)}
     return out

@@ -328,6 +328,14 @@ def check_mu(mu, precision: str = "double", below: bool = False) -> np.ndarray:
     return mu
 
 
+def check_choice(name: str, value, choices):
+    """``value`` if it is one of ``choices``, else a ParameterError naming them."""
+    if value not in choices:
+        raise ParameterError(f"{given(name, value)} is not valid: choose one of "
+                             f"{', '.join(choices)}", name)
+    return value
+
+
 def check_int(name: str, value, lo: int, hi: int, text: str | None = None) -> int:
     """An integer in [lo, hi]: 3 and 3.0 are accepted, 1.5, True, '3' and NaN are not."""
     ok = isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))

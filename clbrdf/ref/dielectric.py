@@ -31,7 +31,7 @@ from . import Reference
 from .microfacet import D as D_, Lambda as Lambda_, fresnel
 from .microfacet import halfvector_map
 from .quadrature import (
-    _rule,
+    gauss01,
     adaptive_gl1,
     adaptive_gl2,
     direction,
@@ -239,7 +239,7 @@ class DielectricReference(Reference):
         ax, ay = self.rough()
         if ax == ay:
             return over_mu(0.0)
-        xs, ws = _rule(n_phi)
+        xs, ws = gauss01(n_phi)
         parts = [over_mu(np.pi / 2 * xk) for xk in xs]
         return sum(w * p[0] for w, p in zip(ws, parts)), sum(w * p[1] for w, p in zip(ws, parts))
 

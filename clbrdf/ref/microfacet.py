@@ -24,8 +24,8 @@ from scipy import special
 
 from .quadrature import (
     INV_PI,
-    _rule,
-    _vec,
+    gauss01,
+    as_float64,
     adaptive_gl1,
     cosine_map,
     direction,
@@ -58,7 +58,7 @@ def D(dist, h, alpha_x, alpha_y):
     Slopes (tx, ty) = (-h.x/h.z, -h.y/h.z), e = tx^2/ax^2 + ty^2/ay^2:
     Beckmann exp(-e) / (pi ax ay cos^4), GGX 1 / (pi ax ay cos^4 (1 + e)^2).
     """
-    h = normalize(_vec(h))
+    h = normalize(as_float64(h))
     ax, ay = np.asarray(alpha_x, float), np.asarray(alpha_y, float)
     x, y, z = h[..., 0], h[..., 1], h[..., 2]
     up = z > 0
@@ -80,7 +80,7 @@ def Lambda(dist, w, alpha_x, alpha_y):
 
     a0^2 tan^2 theta = (wx^2 ax^2 + wy^2 ay^2) / wz^2, a0 the roughness along the azimuth of w.
     """
-    w = normalize(_vec(w))
+    w = normalize(as_float64(w))
     ax, ay = np.asarray(alpha_x, float), np.asarray(alpha_y, float)
     z = w[..., 2]
     up = z > 0
@@ -105,7 +105,7 @@ def G1(dist, w, alpha_x, alpha_y):
 
 def G(masking, dist, wo, wi, h, alpha_x, alpha_y):
     """Masking-shadowing term for the given option."""
-    wi, wo, h = _vec(wi), _vec(wo), _vec(h)
+    wi, wo, h = as_float64(wi), as_float64(wo), as_float64(h)
     shape = np.broadcast_shapes(wi.shape, wo.shape, h.shape)[:-1]
     if masking == "none":
         return np.ones(shape)
@@ -238,7 +238,7 @@ def _isotropic(cfg):
 
 def eval_specular(cfg, wo, wi):
     """Microfacet term F D G / (4 cos_i cos_o); 0 outside the upper hemisphere."""
-    wi, wo = _vec(wi), _vec(wo)
+    wi, wo = as_float64(wi), as_float64(wo)
     ci, co = wi[..., 2], wo[..., 2]
     valid = (ci > 0) & (co > 0)
     h = normalize(wi + wo)
@@ -252,7 +252,7 @@ def eval_specular(cfg, wo, wi):
 def eval(model, wo, wi, **params):
     """BRDF value f(wo, wi) in 1/sr; 0 when wi.z <= 0 or wo.z <= 0."""
     cfg = configure(model, **params)
-    wi, wo = _vec(wi), _vec(wo)
+    wi, wo = as_float64(wi), as_float64(wo)
     valid = (wi[..., 2] > 0) & (wo[..., 2] > 0)
     f = cfg["kd"] * INV_PI
     if model != "lambert":
@@ -288,7 +288,7 @@ def pdf(model, wo, wi, sampler="brdf", **params):
     lobe sampler (ndf or vndf). mis: 0.5 pdf_brdf + 0.5 pdf_cosine.
     """
     cfg = configure(model, **params)
-    wo, wi = _vec(wo), _vec(wi)
+    wo, wi = as_float64(wo), as_float64(wi)
     ci = wi[..., 2]
     valid = (ci > 0) & (wo[..., 2] > 0)
     shape = np.broadcast_shapes(wo.shape, wi.shape)[:-1]
@@ -328,7 +328,7 @@ def halfvector_map(dist, wo, alpha_x, alpha_y):
     theta_o and azimuth phi_o, wi.z = R cos(2 theta_h - delta), tan delta = tan theta_o cos(phi_h
     - phi_o), so theta_max = (pi/2 + delta)/2. Density p(wi) = D(h) h.z / (4 wo.h).
     """
-    wo = _vec(wo)
+    wo = as_float64(wo)
     ax, ay = float(alpha_x), float(alpha_y)
     so, co = np.hypot(wo[0], wo[1]), wo[2]
     phi_o = np.arctan2(wo[1], wo[0])
@@ -425,7 +425,7 @@ def albedo_avg(model, tol=1e-8, n_phi=8, **params):
     if _isotropic(cfg):
         value, err = over_mu(0.0)
         return value, err + tol_e
-    xs, ws = _rule(n_phi)
+    xs, ws = gauss01(n_phi)
     parts = [over_mu(np.pi / 2 * xk) for xk in xs]
     return (sum(wk * v for wk, (v, _) in zip(ws, parts)),
             sum(wk * e for wk, (_, e) in zip(ws, parts)) + tol_e)

@@ -16,7 +16,7 @@ INV_PI = 1 / np.pi
 # ---------------------------------------------------------------------------------------------
 # Vector helpers
 
-def _vec(w):
+def as_float64(w):
     return np.asarray(w, dtype=np.float64)
 
 
@@ -70,7 +70,7 @@ def cosine_map():
 # ---------------------------------------------------------------------------------------------
 # Adaptive tensor Gauss-Legendre on [0,1]^2
 
-def _rule(n):
+def gauss01(n):
     x, w = leggauss(n)
     return (x + 1) / 2, w / 2
 
@@ -118,7 +118,7 @@ def adaptive_gl2(func, tol=1e-8, n=6, s_edges=None, t_edges=None, max_evals=5e7)
     the variable(s) whose error dominates. The returned error is that sum: on every panel two
     successive refinements agree within its share.
     """
-    x, w = _rule(n)
+    x, w = gauss01(n)
     if s_edges is None:
         s_edges = np.union1d(graded_edges(), np.linspace(0, 1, 9))
     if t_edges is None:
@@ -206,7 +206,7 @@ def adaptive_gl1(func, a, b, tol, n=8, max_panels=200):
     rule. Globally adaptive: the panel with the largest error is bisected until the errors sum
     to at most tol (noise of order tol/10 in func, as from an inner quadrature, is tolerated).
     """
-    x, w = _rule(n)
+    x, w = gauss01(n)
 
     def panel(lo, hi):
         mid = (lo + hi) / 2

@@ -260,5 +260,9 @@ def run_probe(m, shape, wo_rows, *, estimator: str, qmc: bool):
 # the albedo driver of the API's Monte Carlo calls: ``runner()`` is ``run_albedo`` unless a
 # ``with using(run):`` block installed another with the same signature (a checkpoint's, a
 # cluster's)
-_RUNNER = Setting("clbrdf_albedo_runner", run_albedo)
-runner, using = _RUNNER.get, _RUNNER.using
+_RUNNER = Setting("clbrdf_albedo_runner")
+using = _RUNNER.using
+
+
+def runner():
+    return _RUNNER.get() or run_albedo      # looked up at each call (a test may replace it)

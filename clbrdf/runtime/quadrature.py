@@ -223,5 +223,9 @@ def run_quadrature(m, shape, wo_rows, *, tol: float, max_evals: int = QUAD_MAX_E
 
 # the quadrature's driver: ``quadrature_runner()`` is ``run_quadrature`` unless a ``with
 # using_quadrature(run):`` block installed another with the same signature (a cluster's)
-_RUNNER = Setting("clbrdf_quadrature_runner", run_quadrature)
-quadrature_runner, using_quadrature = _RUNNER.get, _RUNNER.using
+_RUNNER = Setting("clbrdf_quadrature_runner")
+using_quadrature = _RUNNER.using
+
+
+def quadrature_runner():
+    return _RUNNER.get() or run_quadrature

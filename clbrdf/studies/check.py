@@ -39,11 +39,11 @@ WEIGHT_RTOL = {"single": 1e-3, "double": 1e-8}
 WEIGHT_BAD_FRACTION = 1e-3
 
 
-def _floor(m, e):
+def floor_of(m, e):
     return rounding_floor(m.precision, e)
 
 
-def _resolution(e, samples):
+def resolution(e, samples):
     """What n samples cannot see where the weights are of the order of E (core.unseen with
     W = |E|), for comparisons that start from a reference rather than from an AlbedoResult."""
     return unseen(np.abs(e), samples, ALPHA)
@@ -153,7 +153,7 @@ def _pairs(m):
     return np.concatenate([wi] + extra_wi), np.concatenate([wo] + extra_wo)
 
 
-def _values(m, seed):
+def probe_values(m, seed):
     """eval and pdf over the pairs, samples at every grid direction: arrays and their points."""
     wi, wo = _pairs(m)
     f = np.asarray(m.eval(wo, wi), float)
@@ -468,8 +468,8 @@ def check_albedo(m, samples, seed):
             # the side of the unseen-event allowance the difference is on: an estimate above
             # the quadrature may have missed zeros (at most ln(1000) E / N), one below it
             # large weights (r.unseen)
-            side = np.where(e > q[:, 0], _resolution(e, r.samples), np.atleast_1d(r.unseen))
-            z = np.abs(e - q[:, 0]) / np.sqrt(se ** 2 + q[:, 1] ** 2 + _floor(m, e) ** 2
+            side = np.where(e > q[:, 0], resolution(e, r.samples), np.atleast_1d(r.unseen))
+            z = np.abs(e - q[:, 0]) / np.sqrt(se ** 2 + q[:, 1] ** 2 + floor_of(m, e) ** 2
                                               + side ** 2)
             zs += z.size
             if z.max() > worst_z:
@@ -492,7 +492,7 @@ def check_stderr(m, seed, samples, runs=64):
     """z-scores of independent estimates against their mean: var(z) ~ 1 when the stderr is
     honest. Accepts var(z) in a chi-square interval (runs - 1 dof) widened by 25 % for the
     estimated stderr (heavy-tailed weights fail here, rightly). The spread may exceed the stderr
-    by rounding (``_floor``) and by what the sample count cannot resolve (``_resolution``): the
+    by rounding (``floor_of``) and by what the sample count cannot resolve (``resolution``): the
     upper side judges z with both, the lower side (a stderr larger than the spread) with the
     stderr alone."""
     from scipy import stats as sps      # scipy.stats: 0.9 s to import, on use only
@@ -504,12 +504,12 @@ def check_stderr(m, seed, samples, runs=64):
         e = _rowwise(r.albedo.reshape(runs, -1))
         s = _rowwise(r.sampling_stderr.reshape(runs, -1))
         for c in range(e.shape[1]):
-            if np.all(s[:, c] < _floor(m, e[:, c])):
+            if np.all(s[:, c] < floor_of(m, e[:, c])):
                 continue            # no statistical error to judge: the estimator is exact
             d2 = (e[:, c] - e[:, c].mean()) ** 2
             with np.errstate(divide="ignore", invalid="ignore"):
                 v_lo = float(np.nansum(d2 / s[:, c] ** 2) / (runs - 1))
-            s2 = s[:, c] ** 2 + _floor(m, e[:, c]) ** 2 + _resolution(e[:, c], samples) ** 2
+            s2 = s[:, c] ** 2 + floor_of(m, e[:, c]) ** 2 + resolution(e[:, c], samples) ** 2
             v_hi = float(np.sum(d2 / s2) / (runs - 1))
             v = v_lo if v_lo < 1 else max(v_hi, 1.0)
             if abs(math.log(v)) > abs(math.log(worst_v)):
@@ -529,13 +529,13 @@ def check_energy(m, samples, seed):
         mus = np.concatenate([mus, -mus])
     MU, PHI = np.meshgrid(mus, phis, indexing="ij")
     r = albedo(m, MU, PHI, estimator="mis", samples=samples, seed=seed)
-    e, s = r.albedo, np.sqrt(r.sampling_stderr ** 2 + _floor(m, r.albedo) ** 2)
+    e, s = r.albedo, np.sqrt(r.sampling_stderr ** 2 + floor_of(m, r.albedo) ** 2)
     k = e.size
     z = float(sps.norm.isf(S.sidak(ALPHA, k)))
     # weights are >= 0: events the samples missed can lower E by at most their share of it
     # (ln(1000) E / N) and raise it by at most their share of W (r.unseen); the lower bound
     # needs the first, the upper the second
-    lo_all = e - z * s - _resolution(e, r.samples)
+    lo_all = e - z * s - resolution(e, r.samples)
     # the most E may be (1; a BSDF in radiance form: more where it refracts into a rarer medium)
     bound = m.spec.energy_bound(m.config, m.params, MU)
     bound = bound[..., None] if e.ndim > bound.ndim else bound
@@ -556,7 +556,7 @@ def check(model, *, samples: int = 1 << 16, seed: int = 0, precision: str = "sin
     t0 = time.perf_counter()
     m = model if isinstance(model, Model) else Model(model, precision=precision, device=device,
                                                      **params)
-    v = _values(m, seed)
+    v = probe_values(m, seed)
     checks = [check_finite(m, v), check_nonnegative(m, v), check_weight(m, v)]
     checks += list(check_chi2(m, samples, seed, out))
     checks += [check_albedo(m, samples, seed), check_stderr(m, seed, samples),

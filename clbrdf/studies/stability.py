@@ -53,9 +53,9 @@ from ..models.spec import MU_MIN
 from ..ref import reference
 from ..tables.outputs import csv_text, write_together
 from .check import (
-    _floor,
-    _resolution,
-    _values,
+    floor_of,
+    resolution,
+    probe_values,
     check_finite,
     check_nonnegative,
     check_weight,
@@ -144,7 +144,7 @@ def references(name: str, samples: int = SAMPLES, cache: dict | None = None,
 
 def _run_checks(name, names, value, precision):
     m = Model(name, precision=precision, **_kw(names, value))
-    v = _values(m, SEED)
+    v = probe_values(m, SEED)
     return [check_finite(m, v), check_nonnegative(m, v), check_weight(m, v)]
 
 
@@ -174,11 +174,11 @@ def measure(name: str, refs: dict, *, samples: int = SAMPLES, precisions=("singl
                     e = np.broadcast_to(np.asarray(r.albedo, float), e_ref.shape)
                     se = np.broadcast_to(np.asarray(r.stderr, float), e_ref.shape)
                     runs.append((est, smp, e, se, secs / e.size / samples, m))
-            eps_floor = _floor(runs[0][5], e_ref)
+            eps_floor = floor_of(runs[0][5], e_ref)
             effs = []
             for est, smp, e, se, t, m in runs:
                 dev = np.abs(e - e_ref)
-                sigma = np.sqrt(se ** 2 + eps_floor ** 2 + _resolution(e_ref, samples) ** 2
+                sigma = np.sqrt(se ** 2 + eps_floor ** 2 + resolution(e_ref, samples) ** 2
                                 + r_err ** 2)
                 with np.errstate(invalid="ignore", divide="ignore"):
                     z = np.where(np.isfinite(e), dev / sigma, np.inf)
@@ -195,7 +195,7 @@ def measure(name: str, refs: dict, *, samples: int = SAMPLES, precisions=("singl
                     for j, mu in enumerate(mus):
                         dev = abs(e[i, j] - e_ref[i, j])
                         sigma = math.sqrt(se[i, j] ** 2 + eps_floor[i, j] ** 2
-                                          + _resolution(e_ref[i, j], samples) ** 2
+                                          + resolution(e_ref[i, j], samples) ** 2
                                           + r_err[i, j] ** 2)
                         fin = bool(np.isfinite(e[i, j]) and np.isfinite(se[i, j]))
                         z = dev / sigma if fin and sigma > 0 else (0.0 if fin and dev == 0

@@ -10,16 +10,16 @@ import numpy as np
 
 from ..api.albedo import (
     ROUND_ULPS,
-    _avg_rule,
+    avg_rule,
     reported_error,
     rounding_floor,
     unseen,
     weight_scale,
 )
-from ..api.model import Model, _check_choice
+from ..api.model import Model
 from ..models import get_spec, presets
 from ..models.choices import ERROR_RATE, MAX_GROWTH, MC_ESTIMATORS, PRECISIONS, WIDTHS
-from ..models.spec import ParameterError, called, check_int, check_mu, given
+from ..models.spec import ParameterError, called, check_choice, check_int, check_mu, given
 from ..runtime.albedo import QMC_STREAMS, run_albedo
 from ..runtime.device import resolve_devices
 from ..runtime.launch import derive_seed, seed_words, working_width
@@ -63,7 +63,7 @@ def gauss_directions(n_mu: int, n_phi: int = 1, below: bool = False) -> dict:
     E_avg = (1/pi) int E mu dwo (clbrdf.api.albedo._avg_rule): mu-major order. ``below`` (a
     model that transmits): the same directions mirrored below the surface follow (wo inside),
     with weight 0: E_avg stays the average from above."""
-    mu, phi, c = _avg_rule(n_mu, n_phi)
+    mu, phi, c = avg_rule(n_mu, n_phi)
     M, P = np.meshgrid(mu, phi, indexing="ij")
     out = {"spec": f"gauss:{n_mu}" + (f"x{n_phi}" if n_phi > 1 else ""),
            "mu": M.ravel().tolist(), "phi": P.ravel().tolist(), "weight": c.ravel().tolist()}
@@ -118,8 +118,8 @@ def make_job(model: str, *, axes=None, random=None, directions=None, samples: in
              chunk=None, preset=None, device=None, **fixed) -> dict:
     """Validate every argument (nothing is computed) and return the job: a JSON-able dict."""
     spec = get_spec(model)
-    _check_choice("estimator", estimator, MC_ESTIMATORS)
-    _check_choice("precision", precision, PRECISIONS)
+    check_choice("estimator", estimator, MC_ESTIMATORS)
+    check_choice("precision", precision, PRECISIONS)
     if random is not None:
         random = check_int("random", random, 1, 2**40, "[1, 2^40]")
     axes = axes or {}
