@@ -202,11 +202,8 @@ WRITERS = {
 }
 
 
-def files_for(tables, out, *, prefix: str = "clbrdf", chart: bool = True,
-              suffixes=SUFFIXES) -> dict:
-    """{path: bytes or text} of everything ``save_tables`` writes for one output."""
-    tables = as_tables(tables)
-    out = check_out(out, suffixes)
+def files_for(tables: dict, out: Path, *, prefix: str = "clbrdf", chart: bool = True) -> dict:
+    """{path: bytes or text} of everything ``save_tables`` writes for one output (checked)."""
     files = WRITERS[out.suffix.lower()](tables, out, prefix)
     if chart:           # the tables' charts; an LTC layout's: its fit's error map
         charted = {k: t for k, t in tables.items() if k not in texture_tables(tables)}
@@ -224,13 +221,12 @@ def save_tables(tables, out, *, prefix: str = "clbrdf", chart: bool = True,
     outs = [out] if isinstance(out, (str, os.PathLike)) else list(out)
     if not outs:
         raise ParameterError("out=[] is not valid: give at least one path")
+    tables = as_tables(tables)
     if suffixes is None:
-        suffixes = SUFFIXES + ((".js",) if texture_tables(as_tables(tables)) else ())
-    for o in outs:
-        check_out(o, suffixes)
+        suffixes = SUFFIXES + ((".js",) if texture_tables(tables) else ())
+    outs = [check_out(o, suffixes) for o in outs]      # every path before anything is written
     files = {}
     for i, o in enumerate(outs):
-        files.update(files_for(tables, o, prefix=prefix, chart=chart and i == 0,
-                               suffixes=suffixes))
+        files.update(files_for(tables, o, prefix=prefix, chart=chart and i == 0))
     write_together(files)
     return list(files)
