@@ -176,13 +176,14 @@ class ClusterDriver:
         step = max(1, math.ceil(npts / (self.per * workers)))
         return [(i, min(npts, i + step)) for i in range(0, npts, step)]
 
-    def _map(self, fn, m, shape, wo, kw, point0: int | None):
+    def _map(self, fn, m, shape, wo, kw, point0: int | None = None):
+        """fn on each part of the points; ``kw(i0, i1)``: the part's keyword arguments."""
         npts = math.prod(shape)
         wo = [np.broadcast_to(np.asarray(w, np.float64), shape).reshape(-1) for w in wo]
         futs = []
         for i0, i1 in self._parts(npts):
             args = (m.config, m.point_params(shape, i0, i1), m.precision, m.width, self.device,
-                    [w[i0:i1] for w in wo], kw) + (() if point0 is None else (point0 + i0,))
+                    [w[i0:i1] for w in wo], kw(i0, i1)) + (() if point0 is None else (point0 + i0,))
             futs.append(self.client.submit(fn, *args, pure=False))
         self.tasks += len(futs)
         out = self.client.gather(futs)
@@ -197,7 +198,7 @@ class ClusterDriver:
     def run_albedo(self, m, shape, wo, *, estimator, samples, seed, qmc, progress,
                    point0: int = 0):
         kw = dict(estimator=estimator, samples=samples, seed=seed, qmc=qmc)
-        out = self._map(_albedo_task, m, shape, wo, kw, point0=point0)
+        out = self._map(_albedo_task, m, shape, wo, lambda i0, i1: kw, point0=point0)
         seens = [r[3] for r in out]
         seen = None if any(x is None for x in seens) else tuple(
             np.concatenate([x[j] for x in seens]) for j in range(3))
@@ -206,24 +207,9 @@ class ClusterDriver:
 
     def run_quadrature(self, m, shape, wo, *, tol, max_evals=QUAD_MAX_EVALS, progress=False,
                        integrand="albedo"):
-        npts = math.prod(shape)
         tols = np.broadcast_to(np.asarray(tol, float), shape).reshape(-1)
-        parts = self._parts(npts)
-        if tols.size and np.all(tols == tols[0]):
-            kws = [dict(tol=float(tols[0]), max_evals=max_evals, integrand=integrand)] * len(parts)
-        else:
-            kws = [dict(tol=tols[i0:i1], max_evals=max_evals, integrand=integrand)
-                   for i0, i1 in parts]
-        wo = [np.broadcast_to(np.asarray(w, np.float64), shape).reshape(-1) for w in wo]
-        futs = [self.client.submit(_quadrature_task, m.config, m.point_params(shape, i0, i1),
-                                   m.precision, m.width, self.device, [w[i0:i1] for w in wo],
-                                   k, pure=False) for (i0, i1), k in zip(parts, kws)]
-        self.tasks += len(futs)
-        out = self.client.gather(futs)
-        for r in out:
-            if r[-1] != m.device.info.name:
-                raise ParameterError(f"a cluster worker computed on {r[-1]!r}, this process on "
-                                     f"{m.device.info.name!r}: give the workers' device here")
+        out = self._map(_quadrature_task, m, shape, wo, lambda i0, i1: dict(
+            tol=tols[i0:i1], max_evals=max_evals, integrand=integrand))
         return (np.concatenate([r[0] for r in out]), np.concatenate([r[1] for r in out]),
                 np.concatenate([r[2] for r in out]), sum(r[3] for r in out))
 
