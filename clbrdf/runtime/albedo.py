@@ -172,7 +172,7 @@ def run_albedo(m, shape, wo_rows, *, estimator: str, samples: int, seed: int, qm
     t0 = time.perf_counter()
     # one local size for every launch of the job (PoCL compiles a kernel per local size; the
     # split into launches must not add compilations)
-    local = ndrange(npts * plan.blocks, m.device)[1]
+    local = ndrange(npts * plan.blocks, m.device, heavy=True)[1]
     L = plan.lanes
     nout = 5 if qmc else 3          # per block: K, D, Q (and with QMC the least, greatest weight)
     block_samples = plan.block_len * L
@@ -242,8 +242,7 @@ def run_probe(m, shape, wo_rows, *, estimator: str, qmc: bool):
         bp, bw = _point_buffers(ctx, params_full, wo_full, a, k)
         out = np.empty(k * nch * 2 * W, dtype=m.dtype)
         bo = cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes)
-        # one local size on a CPU (PoCL compiles a kernel per local size): 1
-        geo = ndrange(k, m.device) if m.device.info.is_gpu else ndrange_with(k, (1,))
+        geo = ndrange(k, m.device, heavy=True)
         kern(q, *geo, bp, prog.tables, bw, np.uint64(k), bo)
         cl.enqueue_copy(q, out, bo)
         q.finish()

@@ -73,18 +73,21 @@ def ndrange_with(items: int, local: tuple) -> tuple:
     return (-(-items // local[0]) * local[0],), local
 
 
-def ndrange(items: int, device: Device):
+def ndrange(items: int, device: Device, heavy: bool = False):
     """(global size, local size) for ``items`` work-items; the kernels ignore the padding items.
 
     The local size is explicit: left to itself PoCL makes work-groups of up to 4096 items whose
     contexts live on an 8 MB thread stack, which overflows for models with many parameters
-    (an RGB Holzschuch-Pacanowski launch crashed). On a CPU it is 1 or LOCAL_SIZE and nothing in
-    between: PoCL compiles a kernel once per local size (about 0.1 s at W = 16), and 1 keeps
-    every compute unit busy in small launches. On a GPU: a power of two up to LOCAL_SIZE, smaller
-    for small launches so that every compute unit gets work groups."""
-    cu = device.info.compute_units
+    (an RGB Holzschuch-Pacanowski launch crashed). On a CPU it is one size per kernel, since
+    PoCL compiles a kernel once per local size (0.2 to 1.5 s at W = 16; two sizes per kernel
+    were 280 of the 1861 compilations of a cold test run): 1 for a ``heavy`` kernel, whose
+    work-item is a block of samples (albedo, random walk, LTC: as fast as 8, 16 or 64 from 1 to
+    4096 points, GGX on 2 cores), LOCAL_SIZE for the others (eval, pdf, sample: W values a
+    work-item). On a GPU: a power of two up to LOCAL_SIZE, smaller for small launches so that
+    every compute unit gets work groups."""
     if not device.info.is_gpu:
-        return ndrange_with(items, (LOCAL_SIZE,) if items >= LOCAL_SIZE * 4 * cu else (1,))
+        return ndrange_with(items, (1,) if heavy else (LOCAL_SIZE,))
+    cu = device.info.compute_units
     local = 1
     while local < LOCAL_SIZE and local * 2 * 4 * cu <= items:
         local *= 2

@@ -47,7 +47,7 @@ class LTCRunner:
                         MOMENTS * self.n * np.dtype(b.dtype).itemsize)
         lo, hi = seed_words(seed)
         kernel(self.prog.program, "ltc_moments")(
-            q, *ndrange(self.n, b.device), self.P, self.prog.tables, self.WO, np.uint64(self.n),
+            q, *ndrange(self.n, b.device, heavy=True), self.P, self.prog.tables, self.WO, np.uint64(self.n),
             fb, np.uint32(samples), lo, hi, out)
         h = np.empty(MOMENTS * self.n, b.dtype)
         cl.enqueue_copy(q, h, out)
@@ -78,7 +78,7 @@ class LTCRunner:
                            hostbuf=np.ascontiguousarray(mat, dtype=b.dtype))
             out = cl.Buffer(ctx, mf.WRITE_ONLY, 4 * k * np.dtype(b.dtype).itemsize)
             kernel(self.prog.program, "ltc_loss")(
-                q, *ndrange(k, b.device), self.P, self.prog.tables, self.WO, np.uint64(self.n),
+                q, *ndrange(k, b.device, heavy=True), self.P, self.prog.tables, self.WO, np.uint64(self.n),
                 cb, mb, np.uint64(k), np.uint32(samples), lo, hi, out)
             h = np.empty(4 * k, b.dtype)
             cl.enqueue_copy(q, h, out)

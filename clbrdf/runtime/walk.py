@@ -58,7 +58,7 @@ def walk_sums(bound, shape, wo_rows, walks: int, seed: int, max_order: int,
             lb = min(per_launch_blocks, nblocks - b0)
             items = np_ * lb
             out = cl.Buffer(ctx, cl.mem_flags.WRITE_ONLY, items * nout * np.dtype(b.dtype).itemsize)
-            knl(q, *ndrange(items, b.device), P, prog.tables, *dirs, np.uint64(np_), np.uint64(p0),
+            knl(q, *ndrange(items, b.device, heavy=True), P, prog.tables, *dirs, np.uint64(np_), np.uint64(p0),
                 np.uint32(b0), np.uint32(lb), np.uint32(walks), lo, hi, np.uint32(max_order),
                 np.uint32(block_len), out)
             h = np.empty(items * nout, b.dtype)
@@ -88,7 +88,7 @@ def walk_batch(bound, shape, wo_rows, first: int, stream: int, seed: int, max_or
     bufs = [cl.Buffer(ctx, mf.WRITE_ONLY, o.nbytes) for o in outs]
     prog = b.program(part="walk")
     lo, hi = seed_words(seed)
-    kernel(prog.program, "walk_sample")(q, *ndrange(n_pad // w, b.device), P, prog.tables, WO,
+    kernel(prog.program, "walk_sample")(q, *ndrange(n_pad // w, b.device, heavy=True), P, prog.tables, WO,
                                         np.uint64(n_pad), np.uint32(first), np.uint32(stream),
                                         lo, hi, np.uint32(max_order), *bufs)
     for o, buf in zip(outs, bufs):

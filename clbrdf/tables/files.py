@@ -52,6 +52,19 @@ def check_out(out, suffixes=SUFFIXES, what: str = "tables") -> Path:
     return out
 
 
+class Checked(tuple):
+    """Output paths that ``check_outputs`` has checked: ``save_tables`` writes them without
+    checking again."""
+
+
+def check_outputs(outs, suffixes=SUFFIXES, what: str = "tables") -> Checked:
+    """``check_out`` of each path (one, or a list), before any work."""
+    outs = [outs] if isinstance(outs, (str, os.PathLike)) else list(outs)
+    if not outs:
+        raise ParameterError("out=[] is not valid: give at least one path", "out")
+    return Checked(check_out(o, suffixes, what) for o in outs)
+
+
 def as_tables(tables) -> dict:
     """{name: Table} from a Table or a dict of them."""
     if isinstance(tables, Table):
@@ -216,15 +229,12 @@ def save_tables(tables, out, *, prefix: str = "clbrdf", chart: bool = True,
     """Write a Table (or {name: Table}) to ``out``, a path or a list of them (.npz, .csv, .h,
     .exr; an LTC layout's tables also .js, as its ``suffixes`` allow; module docstring), with a
     PNG chart beside the first (``chart=False``: none). Every path is checked before anything
-    is computed or written, and all files are committed together. Returns the paths
-    written."""
-    outs = [out] if isinstance(out, (str, os.PathLike)) else list(out)
-    if not outs:
-        raise ParameterError("out=[] is not valid: give at least one path")
+    is computed or written (``Checked`` paths, from ``check_outputs`` before the work, are not
+    checked again), and all files are committed together. Returns the paths written."""
     tables = as_tables(tables)
     if suffixes is None:
         suffixes = SUFFIXES + ((".js",) if texture_tables(tables) else ())
-    outs = [check_out(o, suffixes) for o in outs]      # every path before anything is written
+    outs = out if isinstance(out, Checked) else check_outputs(out, suffixes)
     files = {}
     for i, o in enumerate(outs):
         files.update(files_for(tables, o, prefix=prefix, chart=chart and i == 0))
