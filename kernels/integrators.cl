@@ -13,7 +13,8 @@
  *               (random_batch: no model, no Params)
  *   MODEL       the model's function prefix (lambert, microfacet, ...)
  *   ESTIMATOR   ESTIMATOR_UNIFORM | ESTIMATOR_COSINE | ESTIMATOR_BRDF | ESTIMATOR_MIS (albedo)
- *   RNG         rand_philox | rand_sobol (RNG_PHILOX 1 for the first; albedo, ltc and random)
+ *   RNG         rand_philox | rand_sobol (RNG_PHILOX 1 for the first; ltc and random; albedo: Philox, its
+ *               program holding albedo_qmc too)
  * and includes the model header after common.h, rng.h, warp.h (see clbrdf/runtime/build.py).
  * A program holds one part only, so it compiles no code its caller does not run.
  *
@@ -389,7 +390,10 @@ __kernel void albedo_blocks(const global real_t *P, Tables TABLES, const global 
 }
 
 
-#else /* quasi-Monte Carlo */
+#endif /* RNG_PHILOX */
+
+/* quasi-Monte Carlo, in the same program as albedo_blocks (one build and one albedo_probe for
+ * both generators) */
 
 /* Quasi-Monte Carlo: the lanes of a work-item are W of the QMC_STREAMS scrambles, which all take
  * the same sample indices, so the Sobol point is built once for all lanes and scrambled per lane.
@@ -459,8 +463,6 @@ __kernel void albedo_qmc(const global real_t *P, Tables TABLES, const global rea
         VSTORE(hi[ch], o + 4 * W);
     }
 }
-
-#endif /* RNG_PHILOX */
 
 #endif /* KERNELS_ALBEDO */
 

@@ -135,6 +135,18 @@ def usable(device) -> None:
                           f"kernels: {err}. {NO_DEVICE_HELP}")
 
 
+def device_for(args):
+    """The device of --device, before any work: one whose compiler works, with cl_khr_fp64 for
+    --precision double."""
+    from ..runtime.device import get_device
+    dev = get_device(args.device)
+    usable(dev)
+    if getattr(args, "precision", "single") == "double" and not dev.info.has_fp64:
+        raise DeviceError(f"--precision double needs cl_khr_fp64, which {dev.info.name} lacks; "
+                          f"use --precision single or another --device")
+    return dev
+
+
 def model_for(name, args, params):
     from ..api.model import Model
     m = Model(name, precision=getattr(args, "precision", "single"), device=args.device,
@@ -235,6 +247,7 @@ FLAGS = {
     "max_evals": "--max-evals", "error_rate": "--error-rate", "seed": "--seed",
     "precision": "--precision", "width": "--width", "chunk": "--chunk",
     "report_samples": "--report-samples", "magnitude_tol": "--magnitude-tol",
+    "layout": "--layout", "form": "--form", "match_published": "--match-published",
 }
 
 

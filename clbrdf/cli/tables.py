@@ -12,23 +12,21 @@ import numpy as np
 
 from ..models.choices import MAGNITUDE_TOL, MAX_GROWTH
 from ..models.spec import ParameterError
-from ..tables.catalog import get_layout, layouts, ltc_layouts
+from ..tables.catalog import layouts, ltc_formats, ltc_layouts
 from .common import (
     Terminated,
     bars,
     c_name,
     choose_estimator,
     dev_parent,
+    device_for,
     model_arg,
-    model_for,
     no_resume,
     note,
     parse_params,
-    quad_args,
     quote,
     sampling_args,
     spec_of,
-    target_args,
 )
 
 
@@ -117,79 +115,6 @@ def _where(args):
         yield d
 
 
-@contextlib.contextmanager
-def _resumable(args, out: Path):
-    """The table's computations checkpointed beside its first output (clbrdf.tables.checkpoint), so
-    that a killed run continues with --resume; the checkpoint goes once the files are written."""
-    from ..tables.checkpoint import checkpoint
-    where = out.with_name(f".{out.name}.resume")
-    job = {k: v for k, v in sorted(vars(args).items())
-           if k not in ("resume", "argv", "func", "command", "cluster") and not callable(v)}
-    # (--cluster changes where, not what: a run started here may resume on a cluster)
-    try:
-        with checkpoint(where, json.loads(json.dumps(job, default=str)),
-                        resume=args.resume) as ck:
-            yield ck
-    except (KeyboardInterrupt, Terminated):
-        print(f"clbrdf table: stopped; finished chunks are kept in {where}; continue with the "
-              f"same command and --resume", file=sys.stderr)
-        raise
-    shutil.rmtree(where, ignore_errors=True)
-
-
-def _layout_table(args, outs) -> int:
-    from ..tables.files import check_out, save_tables
-    from ..tables.layouts import make_layout
-    cmd = " ".join(["clbrdf"] + [quote(a) for a in args.argv])
-    for o in outs:
-        check_out(o)
-    lay = get_layout(args.layout)
-    given = any(a in ("--samples", "-n") or a.startswith(("--samples=", "-n")) for a in args.argv)
-    samples = args.samples if given else None        # None: the layout's target or count
-    if given and args.match_published:
-        raise ParameterError("--samples and --match-published both set the samples a cell: "
-                             "give one")
-    why = choose_estimator(args)          # brdf with Sobol points unless --estimator
-    est = args.estimator
-    model_for(lay["model"], args, dict(lay.get("fixed", {})))      # no device: fail before work
-    t0 = time.perf_counter()
-    with _where(args), _resumable(args, outs[0]):
-        # the user's --estimator for every channel; without it, a channel of another model
-        # keeps the layout's choice (Filament's cloth: mis)
-        tables = make_layout(args.layout, samples=samples, match_published=args.match_published,
-                             estimator=None if why and est != "quadrature" else est,
-                             seed=args.seed,
-                             qmc=args.qmc, precision=args.precision, device=args.device,
-                             width=args.width, progress=bars(), command=no_resume(cmd),
-                             **quad_args(args), **target_args(args))
-        seconds = time.perf_counter() - t0
-        written = save_tables(tables, outs, prefix=c_name(args.layout))
-    for name, t in tables.items():
-        err = "error" if t.computed.get("estimator") == "quadrature" else "stderr"
-        print(f"{name}: {', '.join(t.quantity)} {' x '.join(str(n) for n in t.shape)} "
-              f"({t.encoding}), largest {err} {float(t.stderr.max()):.2g}; "
-              f"{t.meta.get('how', '')}")
-        for label, c in t.meta.get("clamped", {}).items():
-            lo, hi = t.meta["range"]
-            print(f"  {name}: {c['cells']} cells of {label} clamped to [{lo:g}, {hi:g}] as the "
-                  f"consumer does, by up to {c['max_excess']:.3g} (estimate "
-                  f"{c['model_value']:.4g} at {', '.join(f'{k}={v:.3g}' for k, v in c['at'].items())}"
-                  f"); their stderr includes the clamp")
-    published = sorted({t.meta.get("published_samples") or 1 << 16 for t in tables.values()},
-                       reverse=True)
-    if est == "quadrature":
-        how = f"quadrature (tol {next(iter(tables.values())).meta['computed'].get('tol')})"
-    elif samples is not None or args.match_published:
-        n = samples or " or ".join(map(str, published))
-        how = f"{n} samples per cell, {_estimators(tables)}"
-    else:                       # each table as its line says: a target, the quadrature, a count
-        how = f"each table to its target or count above, {_estimators(tables)}"
-    print(f"layout {args.layout}: {how}, {seconds:.1f} s; wrote {', '.join(map(str, written))}")
-    if why:
-        note(args, f"no --estimator: {why}")
-    return 0
-
-
 def _estimators(tables) -> str:
     """The estimators the tables' channels used: 'brdf + qmc', or 'brdf + qmc (cloth: mis +
     qmc)' where a channel of another model used its own."""
@@ -215,45 +140,6 @@ def _axes(texts) -> dict:
             raise ParameterError(f"axis {ax['name']} is given twice")
         axes[ax["name"]] = ax
     return axes
-
-
-def cmd_table(args) -> int:
-    from ..tables.files import check_out, save_tables
-    outs = [Path(o) for o in args.out]
-    if args.layout:
-        if args.model or args.axis or args.param or args.preset:
-            raise ParameterError("--layout names the model, parameters and axes itself: give no "
-                                 "MODEL, --param, --preset or --axis with it")
-        return _layout_table(args, outs)
-    if args.model is None:
-        raise ParameterError("MODEL is required (or --layout NAME)")
-    if not args.axis:
-        raise ParameterError("a table needs axes: --axis mu=START:STOP:COUNT (and more)")
-    spec = spec_of(args.model)
-    params = parse_params(spec, args.param)
-    for o in outs:
-        check_out(o)
-    axes = _axes(args.axis)
-    from ..tables.compute import albedo_table, table_axes
-    fixed = {**params, **({"preset": args.preset} if args.preset else {})}
-    # every axis against the model, and the model on the device, before any work
-    table_axes(spec, axes, fixed, args.precision)
-    model_for(spec.name, args, params)
-    t0 = time.perf_counter()
-    why = choose_estimator(args)
-    cmd = no_resume(" ".join(["clbrdf"] + [quote(a) for a in args.argv]))
-    with _where(args), _resumable(args, outs[0]):
-        table = albedo_table(spec.name, axes, samples=args.samples,
-                             estimator=args.estimator, seed=args.seed, qmc=args.qmc,
-                             precision=args.precision, device=args.device, width=args.width,
-                             progress=bars(), command=cmd, **quad_args(args),
-                             **target_args(args), **fixed)
-        seconds = time.perf_counter() - t0
-        written = save_tables(table, outs, prefix=c_name(spec.name))
-    print(_table_summary(table, seconds, written))
-    if why:
-        note(args, f"no --estimator: {why}")
-    return 0
 
 
 def _axis_text(name, values, spacing) -> str:
@@ -306,59 +192,140 @@ def _table_summary(t, seconds: float, written) -> str:
     return "\n".join(lines)
 
 
-def cmd_ltc(args) -> int:
-    from ..tables.compute import table_axes
-    from ..tables.files import check_out, save_tables
-    from ..tables.ltc import fit_ltc
-    from ..tables.ltc_layouts import formats, ltc_layout
-    outs = [Path(o) for o in args.out]
-    if args.preset:
-        raise ParameterError("--preset is a published RGB fit; an LTC fits one channel: give "
-                             "its parameters with --param")
-    cmd = " ".join(["clbrdf"] + [quote(a) for a in args.argv])
-    kw = dict(samples=args.samples, report_samples=args.report_samples, seed=args.seed,
-              magnitude_tol=args.magnitude_tol,
-              precision=args.precision, device=args.device, width=args.width, command=cmd)
-    t0 = time.perf_counter()
+def _table_job(args):
+    """--layout or MODEL with --axis -> the job (clbrdf.tables.jobs: its only validation), and
+    the note when the estimator is the recommended one."""
+    why = choose_estimator(args)          # brdf with Sobol points unless --estimator
+    kw = dict(estimator=args.estimator, qmc=args.qmc, seed=args.seed, precision=args.precision,
+              width=args.width, tol=args.tol, max_evals=args.max_evals,
+              target_stderr=args.target_stderr, max_samples=args.max_samples)
     if args.layout:
-        if args.axis or args.form:
-            raise ParameterError("--layout names the axes and the LTC's form itself: give no "
-                                 "--axis or --form with it")
-        suffixes = formats(args.layout)
-        for o in outs:
-            check_out(o, suffixes, f"layout {args.layout}'s tables")
-        name = args.model or ltc_layouts()[args.layout]["model"]
-        params = parse_params(spec_of(name), args.param)
-        model_for(name, args, params)
-        with _where(args):
-            tables = ltc_layout(args.layout, name, **kw, **params)
-        table = tables["ltc"]
-        written = save_tables(tables, outs, prefix=c_name(args.layout), suffixes=suffixes)
+        if args.model or args.axis or args.param or args.preset:
+            raise ParameterError("--layout names the model, parameters and axes itself: give no "
+                                 "MODEL, --param, --preset or --axis with it")
+        given = any(a in ("--samples", "-n") or a.startswith(("--samples=", "-n"))
+                    for a in args.argv)
+        from ..tables.jobs import layout_job
+        # without --estimator, a channel of another model keeps the layout's (Filament's cloth)
+        return layout_job(args.layout, samples=args.samples if given else None,
+                          match_published=args.match_published,
+                          **dict(kw, estimator=None if why and args.estimator != "quadrature"
+                                 else args.estimator)), why
+    if args.model is None:
+        raise ParameterError("MODEL is required (or --layout NAME)")
+    if not args.axis:
+        raise ParameterError("a table needs axes: --axis mu=START:STOP:COUNT (and more)")
+    params = parse_params(spec_of(args.model), args.param)
+    from ..tables.jobs import table_job
+    return table_job(args.model, _axes(args.axis), samples=args.samples, **kw, **params,
+                     **({"preset": args.preset} if args.preset else {})), why
+
+
+def cmd_table(args) -> int:
+    from ..tables.files import check_outputs, save_tables
+    outs = check_outputs(args.out)
+    job, why = _table_job(args)
+    device_for(args)                        # a device that compiles, before any work
+    from ..tables.jobs import run_job
+    t0 = time.perf_counter()
+    with _where(args), _resumable(args, job, outs[0]):
+        tables = run_job(job, device=args.device, progress=bars(), command=_command(args))
+        seconds = time.perf_counter() - t0
+        written = save_tables(tables, outs, prefix=c_name(args.layout or job.arguments["model"]))
+    if args.layout:
+        print(_layout_summary(job, tables, seconds, written))
     else:
-        if args.model is None or not args.axis:
-            raise ParameterError("give MODEL and its axes (--axis sqrt1m_mu=0:1:64 --axis "
-                                 "r=0:1:64:min=0.01), or --layout NAME")
-        spec = spec_of(args.model)
-        params = parse_params(spec, args.param)
-        for o in outs:
-            check_out(o)
-        axes = _axes(args.axis)
-        table_axes(spec, axes, params, args.precision)
-        model_for(spec.name, args, params)
-        form = {} if args.form is None else {"form": args.form}
-        with _where(args):
-            table = fit_ltc(spec.name, axes, **form, **kw, **params)
-        written = save_tables({"ltc": table}, outs, prefix=c_name(spec.name))
+        print(_table_summary(next(iter(tables.values())), seconds, written))
+    if why:
+        note(args, f"no --estimator: {why}")
+    return 0
+
+
+def _layout_summary(job, tables, seconds, written) -> str:
+    """A line per table (its size, error and how), its clamped cells, and the run's line."""
+    a = job.arguments
+    lines = []
+    for name, t in tables.items():
+        err = "error" if t.computed.get("estimator") == "quadrature" else "stderr"
+        lines.append(f"{name}: {', '.join(t.quantity)} {' x '.join(str(n) for n in t.shape)} "
+                     f"({t.encoding}), largest {err} {float(t.stderr.max()):.2g}; "
+                     f"{t.meta.get('how', '')}")
+        for label, c in t.meta.get("clamped", {}).items():
+            lo, hi = t.meta["range"]
+            at = ", ".join(f"{k}={v:.3g}" for k, v in c["at"].items())
+            lines.append(f"  {name}: {c['cells']} cells of {label} clamped to [{lo:g}, {hi:g}] "
+                         f"as the consumer does, by up to {c['max_excess']:.3g} (estimate "
+                         f"{c['model_value']:.4g} at {at}); their stderr includes the clamp")
+    published = sorted({t.meta.get("published_samples") or 1 << 16 for t in tables.values()},
+                       reverse=True)
+    if a["estimator"] == "quadrature":
+        how = f"quadrature (tol {next(iter(tables.values())).meta['computed'].get('tol')})"
+    elif a["samples"] is not None or a["match_published"]:
+        n = a["samples"] or " or ".join(map(str, published))
+        how = f"{n} samples per cell, {_estimators(tables)}"
+    else:                       # each table as its line says: a target, the quadrature, a count
+        how = f"each table to its target or count above, {_estimators(tables)}"
+    lines.append(f"layout {a['layout']}: {how}, {seconds:.1f} s; wrote "
+                 f"{', '.join(map(str, written))}")
+    return "\n".join(lines)
+
+
+def cmd_ltc(args) -> int:
+    from ..tables.files import SUFFIXES, check_outputs, save_tables
+    outs = check_outputs(args.out, ltc_formats(args.layout) if args.layout else SUFFIXES,
+                         f"layout {args.layout}'s tables" if args.layout else "tables")
+    model = args.model or (ltc_layouts()[args.layout]["model"] if args.layout else None)
+    params = parse_params(spec_of(model), args.param) if model else {}
+    from ..tables.jobs import ltc_job, run_job
+    job = ltc_job(args.model, _axes(args.axis) or None, layout=args.layout, form=args.form,
+                  samples=args.samples, report_samples=args.report_samples, seed=args.seed,
+                  magnitude_tol=args.magnitude_tol, precision=args.precision, width=args.width,
+                  **params, **({"preset": args.preset} if args.preset else {}))
+    device_for(args)
+    t0 = time.perf_counter()
+    with _where(args):
+        tables = run_job(job, device=args.device, command=_command(args))
+        seconds = time.perf_counter() - t0
+    written = save_tables(tables, outs, prefix=c_name(args.layout or job.arguments["model"]))
+    print(_ltc_summary(tables["ltc"], seconds, written))
+    return 0
+
+
+def _ltc_summary(table, seconds, written) -> str:
     c = table.computed
     e1, se1 = np.asarray(table["L1"]), np.asarray(table["L1_stderr"])
     i = np.unravel_index(int(np.argmax(e1)), e1.shape)
     at = ", ".join(f"{n}={table[n][k]:.3g}" for n, k in zip(table.axis_names, i))
-    print(f"{c['model']} LTC fit: {' x '.join(str(n) for n in table.shape)} cells, "
-          f"{c['samples']} samples per loss, {c['iterations_mean']} Nelder-Mead iterations per "
-          f"cell on average, {c['device']}: {time.perf_counter() - t0:.1f} s\n"
-          f"  relative L1 error of the LTC: median {np.median(e1):.3g}, max {e1.max():.3g} "
-          f"+- {se1[i]:.1g} ({at})\n  wrote {', '.join(map(str, written))}")
-    return 0
+    return (f"{c['model']} LTC fit: {' x '.join(str(n) for n in table.shape)} cells, "
+            f"{c['samples']} samples per loss, {c['iterations_mean']} Nelder-Mead iterations "
+            f"per cell on average, {c['device']}: {seconds:.1f} s\n"
+            f"  relative L1 error of the LTC: median {np.median(e1):.3g}, max {e1.max():.3g} "
+            f"+- {se1[i]:.1g} ({at})\n  wrote {', '.join(map(str, written))}")
+
+
+@contextlib.contextmanager
+def _resumable(args, job, out: Path):
+    """The table's computations checkpointed beside its first output (clbrdf.tables.checkpoint),
+    keyed by the job and the device, so that a killed run continues with --resume; the
+    checkpoint goes once the files are written (--cluster changes where, not what: a run started
+    here may resume on a cluster)."""
+    from ..tables.checkpoint import checkpoint
+    where = out.with_name(f".{out.name}.resume")
+    try:
+        with checkpoint(where, {**job.to_json(), "device": args.device},
+                        resume=args.resume) as ck:
+            yield ck
+    except (KeyboardInterrupt, Terminated):
+        print(f"clbrdf table: stopped; finished chunks are kept in {where}; continue with the "
+              f"same command and --resume", file=sys.stderr)
+        raise
+    shutil.rmtree(where, ignore_errors=True)
+
+
+def _command(args) -> str:
+    """The command as a table's metadata records it (without --resume: a resumed run's result
+    is the same)."""
+    return no_resume(" ".join(["clbrdf"] + [quote(a) for a in args.argv]))
 
 
 CLUSTER = ("run the albedo and quadrature calls on a dask.distributed cluster: a scheduler "

@@ -7,7 +7,7 @@ import json
 from functools import lru_cache
 from importlib import resources
 
-from ..models.spec import ParameterError
+from ..models.spec import ParameterError, given
 
 
 @lru_cache(maxsize=None)
@@ -24,6 +24,15 @@ def ltc_layouts() -> dict:
     """Every LTC layout: name -> its description."""
     return {k: v for k, v in json.loads(_read("ltc_layouts.json")).items()
             if not k.startswith("_")}
+
+
+def ltc_formats(name: str) -> tuple:
+    """The suffixes LTC layout ``name`` is written as (its "formats")."""
+    lays = ltc_layouts()
+    if name not in lays:
+        raise ParameterError(f"{given('layout', name)} is not an LTC layout: choose one of "
+                             f"{', '.join(sorted(lays))}", "layout")
+    return tuple(lays[name]["formats"])
 
 
 def get_layout(name: str) -> dict:

@@ -25,8 +25,7 @@ from .catalog import get_layout, ltc_layouts
 from .compute import albedo_table, table_axes
 from .layouts import make_layout, table_plan
 from .ltc import FORMS, check_magnitude_tol, fit_ltc
-from .files import SUFFIXES
-from .ltc_layouts import formats, ltc_layout
+from .ltc_layouts import ltc_layout
 
 PRODUCTS = ("table", "layout", "ltc")
 FORMAT = 1
@@ -232,7 +231,9 @@ def ltc_job(model: str | None = None, axes=None, *, layout: str | None = None,
             axes[a["name"]] = a
         form = lay.get("form", "general")
     elif model is None or not axes:
-        raise ParameterError("an LTC fit needs a model and its axes (or a layout)", "axes")
+        raise ParameterError(f"an LTC fit needs {called('model')} and its {called('axes')} "
+                             f"(sqrt1m_mu=0:1:64 and r=0:1:64:min=0.01, say), or "
+                             f"{called('layout')}", "axes")
     form = form or "general"
     if form not in FORMS:
         raise ParameterError(f"{given('form', form)} is not valid: choose one of "
@@ -261,13 +262,6 @@ def ltc_job(model: str | None = None, axes=None, *, layout: str | None = None,
     args.update(axes=[dict(a) for a in axl],
                 fixed={k: _plain(v) for k, v in sorted(fixed.items())})
     return _job("ltc", args)
-
-
-def written_as(job: Job) -> tuple:
-    """The suffixes ``job``'s tables are written as: an LTC layout's formats, else every table
-    suffix."""
-    a = job.arguments
-    return formats(a["layout"]) if job.product == "ltc" and a["layout"] else SUFFIXES
 
 
 def run_job(job: Job, *, device=None, progress: bool = False,

@@ -2,7 +2,7 @@
 them (clbrdf.fit_ltc) and packs the fit into the layout's textures (clbrdf.tables.textures), all
 as tables {name: Table}: ``save_tables`` writes them to a .js ES module for three.js, a C header
 of the texture arrays, or the tables' own .npz, .exr and .csv, as the layout's "formats" allow
-(``formats``), and ``load_tables`` reads the last three back."""
+(``catalog.ltc_formats``), and ``load_tables`` reads the last three back."""
 from __future__ import annotations
 
 from ..models.spec import ParameterError
@@ -12,11 +12,6 @@ from .ltc import fit_ltc
 from .textures import textures
 
 SUFFIXES = (".js", ".h", ".npz", ".exr")       # what an LTC layout is written as by default
-
-
-def formats(name: str) -> tuple:
-    """The suffixes layout ``name`` is written as."""
-    return tuple(_layout(name).get("formats", SUFFIXES))
 
 
 def _layout(name: str) -> dict:
