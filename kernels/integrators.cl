@@ -208,70 +208,6 @@ ALWAYS_INLINE spec albedo_estimate(const Params *p, vec3 wo, rand4 u)
 #endif
 }
 
-/* ---- probes of the estimator's weight: the scale W of the unseen-event allowance ----
- * (clbrdf/api/albedo.py, weight_scale). PROBES deterministic numbers, the same for every point:
- * u0, u1 on the grid 2^-20, 1/8, 3/8, 5/8, 7/8, 1 - 2^-20 (the sampler's edges: its lobe's peak
- * and far tail) and u2 in 0.1, 0.5, 0.9 (a mixture's lobes). At each the estimator's weight of
- * one sample: brdf, the sampler's weight; uniform 2 pi f cos and cosine pi f at the sampler's
- * direction (where a sharp lobe is, which their own directions rarely reach); mis, twice the
- * sampler's weight (two balance terms per estimate, each at most f cos / pdf of the sampler:
- * no evaluation beyond the sampler's, so that the probe adds little to the program). */
-#define PROBES 108
-
-FN realN probe_grid(uintN i)
-{
-    realN x = (2 * convert_realN(i) - 1) * (realN)0.125;
-    x = sel(x, (realN)9.5367431640625e-07, TO_MASK(i == (uintN)0));
-    return sel(x, (realN)(1 - 9.5367431640625e-07), TO_MASK(i == (uintN)5));
-}
-
-ALWAYS_INLINE spec probe_weight(const Params *p, vec3 wo, rand4 u)
-{
-    BSample sb = BRDF(sample)(p, wo, u);
-#if ESTIMATOR == ESTIMATOR_BRDF
-    return sb.weight;
-#elif ESTIMATOR == ESTIMATOR_UNIFORM
-    return spec_scale(BRDF(eval)(p, wo, sb.wi), EST_UNIFORM_WEIGHT(sb.wi));
-#elif ESTIMATOR == ESTIMATOR_COSINE
-    return spec_scale(BRDF(eval)(p, wo, sb.wi), EST_COSINE_WEIGHT);
-#else
-    return spec_scale(sb.weight, 2);     /* each balance term is at most f cos / pdf_brdf */
-#endif
-}
-
-/* Work-item g: point g of the launch. Per channel, the lanes' largest and smallest finite probe
- * weights at out[(CHANNELS g + c) 2 W + l] and out[(CHANNELS g + c) 2 W + W + l]. */
-__kernel void albedo_probe(const global real_t *P, Tables TABLES, const global real_t *WO,
-                           const ulong npoints, global real_t *out)
-{
-    ulong g = get_global_id(0);
-    if (g >= npoints) return;
-    Params p = splat_params(P, TABLES, npoints, g);
-    vec3 wo = v3((realN)WO[g], (realN)WO[npoints + g], (realN)WO[2 * npoints + g]);
-    realN hi[CHANNELS], lo[CHANNELS];
-    for (int c = 0; c < CHANNELS; ++c) {
-        hi[c] = 0;
-        lo[c] = (realN)INFINITY;
-    }
-    for (uint k = 0; k < PROBES; k += W) {
-        uintN i = (uintN)k + LANE_IDS;
-        i = sel(i, (uintN)(PROBES - 1), i >= (uintN)PROBES);   /* a repeat changes no extreme */
-        rand4 u = {probe_grid(i % 6), probe_grid((i / 6) % 6),
-                   (realN)0.1 + (realN)0.4 * convert_realN(i / 36), (realN)0.5};
-        spec w = probe_weight(&p, wo, u);
-        for (int c = 0; c < CHANNELS; ++c) {
-            realN v = sel((realN)0, w.c[c], isfinite(w.c[c]));
-            hi[c] = fmax(hi[c], v);
-            lo[c] = fmin(lo[c], v);
-        }
-    }
-    for (int c = 0; c < CHANNELS; ++c) {
-        global real_t *o = out + (CHANNELS * g + c) * 2 * W;
-        VSTORE(hi[c], o);
-        VSTORE(lo[c], o + W);
-    }
-}
-
 /* Work-item g of an albedo launch: its point (point0 + g / launch_blocks, whose parameters and
  * wo it loads) and block (block0 + g % launch_blocks); 0 for a padding work-item. */
 FN int albedo_work(const global real_t *P, Tables TABLES, const global real_t *WO,
@@ -392,8 +328,7 @@ __kernel void albedo_blocks(const global real_t *P, Tables TABLES, const global 
 
 #endif /* RNG_PHILOX */
 
-/* quasi-Monte Carlo, in the same program as albedo_blocks (one build and one albedo_probe for
- * both generators) */
+/* quasi-Monte Carlo, in the same program as albedo_blocks (one build for both generators) */
 
 /* Quasi-Monte Carlo: the lanes of a work-item are W of the QMC_STREAMS scrambles, which all take
  * the same sample indices, so the Sobol point is built once for all lanes and scrambled per lane.

@@ -27,7 +27,7 @@ import pytest
 
 from clbrdf.tables import cheader
 from clbrdf.tables.files import SUFFIXES as TABLE_SUFFIXES
-from clbrdf.tables.catalog import ltc_layouts
+from clbrdf.tables.catalog import ltc_layouts, ltc_textures
 from clbrdf.tables.ltc_layouts import SUFFIXES as LTC_SUFFIXES
 from clbrdf.tables.table import load_tables
 from cliutil import run_inprocess
@@ -275,16 +275,21 @@ def _exr_textures(path, tables):
 
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not installed")
-@pytest.mark.parametrize("case", ["ltc-threejs", "ltc-cycles_sheen"])     # not smoke: each
-# layout's magnitudes are 4096 or 1024 cells of the double-precision quadrature (50 s, 80 s)
+# not smoke: each layout's magnitudes are 4096 or 1024 cells of the double-precision quadrature.
+# threejs (37 s) in the slow tier: cycles_sheen covers `clbrdf ltc --layout` with every format
+# of its layout, and the smoke test test_small_texture_files_read_back the threejs textures'
+# .js, .h and .exr read back by Node, gcc and OpenEXR
+@pytest.mark.parametrize("case", [pytest.param("ltc-threejs", marks=pytest.mark.slow),
+                                  "ltc-cycles_sheen"])
 def test_every_ltc_layout_file_holds_the_npz_textures(case, tmp_path):
     outs = _run(tmp_path, case)
     layout = CASES[case][0][CASES[case][0].index("--layout") + 1]
     lay = ltc_layouts()[layout]
     tables = load_tables(outs[0])
-    assert all(tables[k].raw.dtype == np.float32 and tables[k].quantity == lay["textures"][k]
-               for k in lay["textures"])
-    tex = {k: np.float32(tables[k].values) for k in lay["textures"]}
+    textures = ltc_textures(lay)
+    assert all(tables[k].raw.dtype == np.float32 and tables[k].quantity == textures[k]
+               for k in textures)
+    tex = {k: np.float32(tables[k].values) for k in textures}
     fit = {q: tables["ltc"][q] for q in ("E", "B", "L3", "L1")}
     for out in outs[1:]:
         if out.suffix == ".js":

@@ -1124,10 +1124,31 @@ def test_cli_furnace_and_its_refusals(tmp_path):
 
 
 def test_cli_lists_the_layouts():
+    from clbrdf.tables.catalog import ltc_layouts
     r = run_inprocess("layouts")
-    assert r.returncode == 0 and all(f"{n}:" in r.stdout for n in layouts())
+    assert r.returncode == 0 and all(f"  {n}:" in r.stdout for n in [*layouts(), *ltc_layouts()])
+    assert "clbrdf ltc --layout NAME:\n  threejs:" in r.stdout
     r = run_inprocess("layouts", "--json")
-    assert json.loads(r.stdout).keys() == layouts().keys()
+    assert json.loads(r.stdout) == {"albedo": layouts(), "ltc": ltc_layouts()}
+
+
+@pytest.mark.smoke
+def test_both_layout_files_follow_one_schema():
+    """layouts.json and ltc_layouts.json: one schema (tables.catalog.check_layout), which finds
+    what an entry in the older LTC schema had (a description, textures, axes at the top)."""
+    from clbrdf.tables.catalog import check_layout, ltc_layouts
+    for lays in (layouts(), ltc_layouts()):
+        for name, lay in lays.items():
+            assert check_layout(name, lay) == [], name
+    lay = ltc_layouts()["threejs"]
+    old = {"product": "ltc", "description": lay["consumer"], "source": lay["source"],
+           "model": "ggx", "axes": lay["tables"][0]["axes"], "textures": {"LTC_MAT_1": ["E"]}}
+    assert check_layout("old", old) == ["old: no consumer", "old: no tables",
+                                        "old: unknown key 'description'",
+                                        "old: unknown key 'axes'",
+                                        "old: unknown key 'textures'"]
+    two_grids = dict(lay, tables=[lay["tables"][0], dict(lay["tables"][1], axes=["mu=0:1:8"])])
+    assert check_layout("x", two_grids) == ["x: an LTC layout's tables have different axes"]
 
 
 def test_clamped_cells_count_every_part():

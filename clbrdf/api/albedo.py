@@ -179,7 +179,7 @@ def weight_scale(m: Model, shape, wo_rows, estimator: str, est=None, qmc: bool =
     model's sampler at a grid of numbers that includes the edges of its domain (its lobe's peak
     and far tail), where the weight is the estimator's own (uniform 2 pi f cos, cosine pi f, brdf
     f cos / pdf, mis twice that: each of its two balance terms is at most f cos / pdf;
-    kernels/integrators.cl, albedo_probe), and |E|. Weights are >= 0, so this bounds
+    clbrdf/runtime/albedo.py, run_probe), and |E|. Weights are >= 0, so this bounds
     |weight - E| where a missed event has weight 0 as well as where it has a large one. W = 0
     where every probe gives the same weight to within the rounding floor (``rounding_floor``,
     already in the reported error): the estimator is exact there (Lambert with cosine or brdf

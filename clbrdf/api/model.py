@@ -33,12 +33,10 @@ class Model(Bound):
     def __init__(self, name: str, *, precision: str = "single", device=None, width: int | None = None,
                  channels: int | None = None, preset: str | None = None, **params):
         self.spec = get_spec(name)
-        self.preset = None
-        if preset is not None:          # a published fit (clbrdf.presets); params override it
-            self.preset = presets.get(self.spec.name, preset)
-            params = {**self.preset.options, **self.preset.params, **params}
-            channels = 3 if channels is None else channels
-        config, params = self.spec.configure(channels=channels or 1, **params)
+        # a published fit (clbrdf.presets); params override it
+        self.preset = None if preset is None else presets.get(self.spec.name, preset)
+        params, channels = presets.applied(self.spec.name, preset, params, channels)
+        config, params = self.spec.configure(channels=channels, **params)
         check_choice("precision", precision, PRECISIONS)
         dev: Device = get_device(device)
         width = working_width(dev, precision) if width is None else width

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..models.choices import MAGNITUDE_TOL, MAX_GROWTH
 from ..models.spec import ParameterError
-from ..tables.catalog import layouts, ltc_formats, ltc_layouts
+from ..tables.catalog import PRODUCTS, layouts, ltc_formats, ltc_layouts
 from .common import (
     Terminated,
     bars,
@@ -87,20 +87,22 @@ def _print_furnace(path, r, samples):
 
 
 def cmd_layouts(args) -> int:
-    all_ = layouts()
+    every = {"albedo": layouts(), "ltc": ltc_layouts()}       # one schema (tables.catalog)
     if args.json:
-        print(json.dumps(all_, indent=1))
+        print(json.dumps(every, indent=1))
         return 0
-    for name, lay in all_.items():
-        print(f"{name}: {lay['consumer']}")
-        for t in lay["tables"]:
-            q = t["quantity"] if isinstance(t["quantity"], str) else ", ".join(
-                x if isinstance(x, str) else
-                f"{x.get('label', x['quantity'])} ({x.get('model', t.get('model', lay['model']))})"
-                for x in t["quantity"])
-            print(f"    {t['name']}: {q} over {' x '.join(t['axes'])} "
-                  f"({lay.get('encoding', 'float32')})")
-        print(f"    source: {lay['source']}")
+    for product, lays in every.items():
+        print(f"{PRODUCTS[product]} NAME:")
+        for name, lay in lays.items():
+            print(f"  {name}: {lay['consumer']}")
+            for t in lay["tables"]:
+                q = t["quantity"] if isinstance(t["quantity"], str) else ", ".join(
+                    x if isinstance(x, str) else
+                    f"{x.get('label', x['quantity'])} ({x.get('model', t.get('model', lay['model']))})"
+                    for x in t["quantity"])
+                print(f"      {t['name']}: {q} over {' x '.join(t['axes'])} "
+                      f"({lay.get('encoding', 'float32')})")
+            print(f"      source: {lay['source']}")
     return 0
 
 

@@ -176,6 +176,15 @@ def get(model: str, material: str) -> Preset:
     return Preset(name, model, source, dict(options), dict(params))
 
 
+def applied(model: str, preset: str | None, params: dict, channels: int | None = None):
+    """(params, channels) with preset ``preset`` of ``model`` under ``params`` (which override
+    it): an RGB fit, so channels 3 unless given; without a preset, as given (channels 1)."""
+    if preset is None:
+        return dict(params), channels or 1
+    p = get(model, preset)
+    return {**p.options, **p.params, **params}, 3 if channels is None else channels
+
+
 def summary() -> dict[str, dict]:
     """Model -> {"sources": [{file, label, attribution, materials}], "materials": [...]}."""
     out = {}

@@ -81,13 +81,9 @@ def reference(model, **kwargs) -> Reference:
         spec, config, params = model.spec, model.config, model.params
     else:
         spec = get_spec(model)
-        preset = kwargs.pop("preset", None)
-        channels = kwargs.pop("channels", None)
-        if preset is not None:
-            p = presets.get(spec.name, preset)
-            kwargs = {**p.options, **p.params, **kwargs}
-            channels = 3 if channels is None else channels
-        config, params = spec.configure(channels=channels or 1, **kwargs)
+        preset, channels = kwargs.pop("preset", None), kwargs.pop("channels", None)
+        kwargs, channels = presets.applied(spec.name, preset, kwargs, channels)
+        config, params = spec.configure(channels=channels, **kwargs)
     # a reference of this package, or a module elsewhere (a model registered from outside)
     own = importlib.util.find_spec(f"{__name__}.{spec.ref}") is not None
     module = importlib.import_module(f"{__name__}.{spec.ref}" if own else spec.ref)

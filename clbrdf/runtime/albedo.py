@@ -16,15 +16,17 @@ import time
 
 import numpy as np
 
+from ..models import get_spec
 from ..models.spec import ParameterError, Setting
 from . import build
+from .bound import Bound
 from .launch import kernel, ndrange, ndrange_with, progress_bar, seed_words
 
 QMC_STREAMS = 16          # independent scrambles behind a quasi-Monte Carlo error estimate
 LAUNCH_SAMPLES = 1 << 30  # samples per kernel launch, at most (at least one block)
 FIRST_LAUNCH = 1 << 20    # samples in the first launch; later ones are sized from its speed
 LAUNCH_SECONDS = 0.25     # target duration of one launch
-LAUNCH_POINTS = 1 << 18   # points per probe launch (run_probe), at most
+LAUNCH_PROBES = 1 << 20   # probes per launch (run_probe), at most
 
 
 class AlbedoPlan:
@@ -221,36 +223,64 @@ def run_albedo(m, shape, wo_rows, *, estimator: str, samples: int, seed: int, qm
     return est, err, plan, time.perf_counter() - t0, red.seen()
 
 
+PROBES = 108              # probes of the estimator's weight per point (``probe_numbers``)
+
+
+def probe_numbers(dtype) -> np.ndarray:
+    """The (PROBES, 4) numbers every point's probes use, in the kernels' precision: u0, u1 on
+    the grid 2^-20, 1/8, 3/8, 5/8, 7/8, 1 - 2^-20 (the sampler's edges: its lobe's peak and far
+    tail), u2 in 0.1, 0.5, 0.9 (a mixture's lobes), u3 = 0.5."""
+    i = np.arange(PROBES)
+
+    def grid(j):
+        x = (2 * j - 1) * 0.125
+        return np.where(j == 0, 2.0 ** -20, np.where(j == 5, 1 - 2.0 ** -20, x))
+    one = dtype(1)
+    u2 = dtype(0.1) + dtype(0.4) * (i // 36).astype(dtype)
+    return np.stack([grid(i % 6).astype(dtype), grid((i // 6) % 6).astype(dtype), u2,
+                     np.full(PROBES, 0.5 * one, dtype)], axis=1)
+
+
 def run_probe(m, shape, wo_rows, *, estimator: str, qmc: bool):
-    """The largest and smallest weight of the estimator over its probes (albedo_probe in
-    kernels/integrators.cl) at every point of ``shape``: two arrays (points, channels). Runs in
-    the albedo program of the same estimator and generator (no other program), in launches
-    of at most LAUNCH_POINTS points."""
-    import pyopencl as cl
+    """The largest and smallest weight of the estimator over its probes at every point of
+    ``shape``: two arrays (points, channels), each non-finite weight counted as 0. A probe is
+    one sample of the model's sampler at ``probe_numbers``: its weight for brdf, twice it for
+    mis (each balance term is at most f cos / pdf of the sampler), and f at the sampled
+    direction times the estimator's own |cos| / pdf for uniform and cosine (where a sharp lobe
+    is, which their own directions rarely reach). It runs the batch program's sample kernel
+    (and eval's), which every configuration has: no kernel of its own to compile (it was 264
+    of 1861 compilations of a cold test run). ``qmc`` does not change the probes."""
     npts = math.prod(shape)
-    nch, W = m.channels, m.width
-    prog = m.program(part="albedo", estimator=estimator, rng="sobol" if qmc else "philox")
-    kern = kernel(prog.program, "albedo_probe")
-    ctx, q = m.device.context, m.device.queue
-    mf = cl.mem_flags
+    nch = m.channels
+    u = probe_numbers(m.dtype)
     hi = np.empty((npts, nch))
     lo = np.empty((npts, nch))
-    params_full = m.param_block(shape, npts)
-    wo_full = m.soa(shape, wo_rows, npts)
-    for a in range(0, npts, LAUNCH_POINTS):
-        k = min(npts - a, LAUNCH_POINTS)
-        bp, bw = _point_buffers(ctx, params_full, wo_full, a, k)
-        out = np.empty(k * nch * 2 * W, dtype=m.dtype)
-        bo = cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes)
-        geo = ndrange(k, m.device, heavy=True)
-        kern(q, *geo, bp, prog.tables, bw, np.uint64(k), bo)
-        cl.enqueue_copy(q, out, bo)
-        q.finish()
-        out = out.reshape(k, nch, 2, W).astype(np.float64)
-        hi[a:a + k] = out[:, :, 0].max(axis=-1)
-        lo[a:a + k] = out[:, :, 1].min(axis=-1)
+    wo = [np.broadcast_to(np.asarray(r, np.float64), shape).reshape(-1) for r in wo_rows]
+    step = max(1, LAUNCH_PROBES // PROBES)
+    transmits = get_spec(m.config.model).transmits      # uniform and cosine on the sphere
+    for a in range(0, npts, step):
+        k = min(npts - a, step)
+        params = {n: v[:, None] for n, v in m.point_params(shape, a, a + k).items()}
+        sub = Bound(m.config, params, m.precision, m.device, m.width)
+        grid = (k, PROBES)
+        wo_k = [np.broadcast_to(r[a:a + k, None], grid) for r in wo]
+        u_k = [np.broadcast_to(u[:, c], grid) for c in range(4)]
+        wi, weight, _ = sub.batch("sample_batch", grid, [wo_k, u_k], [3, nch, 1])
+        w = weight.astype(np.float64)
+        if estimator == "mis":
+            w = 2 * w
+        elif estimator in ("uniform", "cosine"):
+            f = sub.batch("eval_batch", grid, [wo_k, list(wi)], [nch])[0].astype(np.float64)
+            z = wi[2].astype(np.float64)
+            if estimator == "uniform":
+                scale = np.abs(z) * 4 * np.pi if transmits else np.maximum(z, 0) * 2 * np.pi
+            else:
+                scale = 2 * np.pi if transmits else np.pi
+            w = f * scale
+        v = np.where(np.isfinite(w), w, 0.0)                 # (channels, k, PROBES)
+        hi[a:a + k] = np.maximum(v.max(axis=-1), 0.0).T
+        lo[a:a + k] = v.min(axis=-1).T
     return hi, lo
-
 
 
 # ---------------------------------------------------------------------------------------------

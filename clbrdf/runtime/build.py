@@ -106,8 +106,7 @@ def program_source(cfg: Config, precision: str, width: int, *, part: str = "batc
                    integrand: str = "albedo") -> tuple[str, tuple[str, ...]]:
     """The self-contained source of one program. ``part`` picks its kernels, so that a program
     holds only the code its caller runs: ``batch`` (eval_batch, pdf_batch, sample_batch),
-    ``albedo`` (for one estimator: albedo_blocks with Philox, albedo_qmc with Sobol points, and
-    albedo_probe), ``quadrature`` (quadrature_panels),
+    ``albedo`` (for one estimator: albedo_blocks with Philox, albedo_qmc with Sobol points), ``quadrature`` (quadrature_panels),
     ``ltc`` (ltc_moments and ltc_loss for one generator: the LTC fit), ``walk`` (walk_albedo
     and walk_sample: Heitz et al. 2016's random walk, kernels/heitz_ms.h) or ``random`` (random_batch for one
     generator; it contains no model, so one program serves every model). ``integrand`` of the

@@ -153,13 +153,8 @@ def make_job(model: str, *, axes=None, random=None, directions=None, samples: in
                              f"probability that a point's verdict is wrong) is in (0, 0.5)")
     seed_words(seed)
     # the configuration at a few points of the box checks the fixed parameters and axes together
-    channels = fixed.pop("channels", None)
-    params = dict(fixed)
-    if preset is not None:              # a published fit; fixed parameters override it
-        pr = presets.get(spec.name, preset)
-        params = {**pr.options, **pr.params, **params}
-        channels = 3 if channels is None else channels
-    channels = channels or 1
+    channels = fixed.pop("channels", None)     # a published fit; fixed parameters override it
+    params, channels = presets.applied(spec.name, preset, fixed, channels)
     probe = _probe_params(axes, spec)
     params = {k: v for k, v in params.items() if k not in probe}      # axes override a preset
     grid = [g.reshape(-1) for g in np.meshgrid(*probe.values(), indexing="ij")] if probe else []

@@ -21,7 +21,7 @@ from ..models.spec import ParameterError, called, check_choice, check_int, given
 from ..runtime.launch import seed_words
 from ..runtime.quadrature import QUAD_MAX_EVALS
 from . import axes as ax_mod
-from .catalog import get_layout, ltc_layouts
+from .catalog import get_layout, ltc_axes, ltc_layouts
 from .compute import albedo_table, table_axes
 from .layouts import make_layout, table_plan
 from .ltc import FORMS, check_magnitude_tol, fit_ltc
@@ -130,11 +130,7 @@ def _check_parameters(spec, axl, fixed: dict) -> None:
     the model's own checks, with nothing built."""
     fixed = dict(fixed)
     channels = fixed.pop("channels", None)
-    preset = fixed.pop("preset", None)
-    if preset is not None:
-        pr = presets.get(spec.name, preset)
-        fixed = {**pr.options, **pr.params, **fixed}
-        channels = 3 if channels is None else channels
+    fixed, channels = presets.applied(spec.name, fixed.pop("preset", None), fixed, channels)
     probe = {}
     for a in axl:
         if a["name"] in ax_mod.VIEW or a["name"] == "phi":
@@ -143,8 +139,8 @@ def _check_parameters(spec, axl, fixed: dict) -> None:
         target = ax_mod.MAPPED[a["name"]][0] if a["name"] in ax_mod.MAPPED else a["name"]
         probe[target] = np.unique(v[[0, len(v) // 2, -1]])
     grid = [g.reshape(-1) for g in np.meshgrid(*probe.values(), indexing="ij")] if probe else []
-    spectral = {k for k in probe if spec.param(k).spectral and (channels or 1) > 1}
-    spec.configure(channels=channels or 1, **{k: v for k, v in fixed.items() if k not in probe},
+    spectral = {k for k in probe if spec.param(k).spectral and channels > 1}
+    spec.configure(channels=channels, **{k: v for k, v in fixed.items() if k not in probe},
                    **{k: (g[:, None] if k in spectral else g) for k, g in zip(probe, grid)})
 
 
@@ -226,7 +222,7 @@ def ltc_job(model: str | None = None, axes=None, *, layout: str | None = None,
         lay = lays[layout]
         model = model or lay["model"]
         axes = {}
-        for text in lay["axes"]:
+        for text in ltc_axes(lay):
             a = ax_mod.parse_axis(text)
             axes[a["name"]] = a
         form = lay.get("form", "general")

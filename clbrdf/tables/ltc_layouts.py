@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from ..models.spec import ParameterError
 from .axes import parse_axis
-from .catalog import ltc_layouts
+from .catalog import ltc_axes, ltc_layouts
 from .ltc import fit_ltc
 from .textures import textures
 
@@ -28,7 +28,7 @@ def ltc_layout(name: str, model: str | None = None, **kw) -> dict:
     ``kw`` go to fit_ltc (parameters, options, samples, device, ...)."""
     lay = _layout(name)
     axes = {}
-    for text in lay["axes"]:
+    for text in ltc_axes(lay):
         ax = parse_axis(text)
         axes[ax["name"]] = ax
     fit = fit_ltc(model or lay["model"], axes, **{"form": lay.get("form", "general"), **kw})

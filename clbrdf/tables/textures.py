@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..version import __version__
-from .catalog import ltc_layouts
+from .catalog import ltc_layouts, ltc_textures
 from .table import Table
 
 
@@ -48,7 +48,7 @@ def textures(name: str, fit: Table) -> dict:
              "a_inv": 1 / np.asarray(fit["minv22"], float),
              "b_inv": np.asarray(fit["minv02"], float) / np.asarray(fit["minv22"], float)}
     out = {}
-    for k, chans in lay["textures"].items():
+    for k, chans in ltc_textures(lay).items():
         raw = np.stack([extra[q] if q in extra else fit[q] for q in chans], -1)
         err = np.stack([np.zeros(shape) if q in extra else fit[q + "_stderr"] for q in chans], -1)
         out[k] = Table(name=k, axes=[dict(a) for a in fit.axes], quantity=list(chans),
@@ -101,7 +101,7 @@ def js_text(tables: dict) -> str:
     name, tex, fit = _layout_of(tables)
     lay = ltc_layouts()[name]
     rows, cols = next(iter(tex.values())).shape[:2]
-    lines = [f"// {_about(name, fit)}", f"// {lay['description']}", f"// {lay['notes']}",
+    lines = [f"// {_about(name, fit)}", f"// {lay['consumer']}", f"// {lay['notes']}",
              "// Use: import { RectAreaLightTexturesLib } from './this-file.js' in place of "
              "three/addons/lights/RectAreaLightTexturesLib.js (WebGL: RectAreaLightUniformsLib "
              "reads it; WebGPU: RectAreaLightNode.setLTC(RectAreaLightTexturesLib.init())).",
@@ -131,7 +131,7 @@ def c_text(tables: dict) -> str:
     order: interleaved channels, or planes."""
     name, tex, fit = _layout_of(tables)
     lay = ltc_layouts()[name]
-    lines = [f"/* {_about(name, fit)}", f" * {lay['description']}", f" * {lay['notes']} */",
+    lines = [f"/* {_about(name, fit)}", f" * {lay['consumer']}", f" * {lay['notes']} */",
              f"#ifndef CLBRDF_LTC_{name.upper()}_H", f"#define CLBRDF_LTC_{name.upper()}_H",
              "#if defined(__OPENCL_VERSION__)", "#define CLBRDF_LTC_DATA __constant",
              "#elif defined(__CUDACC__)", "#define CLBRDF_LTC_DATA static __device__ const",
