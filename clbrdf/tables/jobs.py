@@ -23,7 +23,7 @@ from ..runtime.quadrature import QUAD_MAX_EVALS
 from . import axes as ax_mod
 from .catalog import get_layout, ltc_axes, ltc_layouts
 from .compute import albedo_table, table_axes
-from .layouts import make_layout, table_plan
+from .layouts import check_only, make_layout, table_plan
 from .ltc import FORMS, check_magnitude_tol, fit_ltc
 from .ltc_layouts import ltc_layout
 
@@ -186,14 +186,7 @@ def layout_job(layout: str, *, samples: int | None = None, match_published: bool
     est = _estimator(estimator or "brdf", qmc, tol, max_evals, target_stderr, max_samples)
     args.update({"tol": None, "max_evals": None, "target_stderr": None, "max_samples": None,
                  **est, "estimator": estimator})
-    names = [t["name"] for t in lay["tables"]]
-    if only is not None:
-        only = [only] if isinstance(only, str) else list(only)
-        unknown = [n for n in only if n not in names]
-        if unknown:
-            raise ParameterError(f"{given('only', unknown[0])} is not a table of layout "
-                                 f"{layout}: choose from {', '.join(names)}", "only")
-    args["only"] = only
+    args["only"] = check_only(layout, only)
     for tab in lay["tables"]:           # each table's plan: its own checks
         table_plan(lay, tab, samples=args["samples"], match_published=match_published,
                    target_stderr=args.get("target_stderr"), max_samples=args.get("max_samples"),

@@ -16,7 +16,7 @@ import numpy as np
 from ..api.albedo import fresnel_avg
 from ..api.model import Model
 from ..models.microfacet import FRESNEL_NAMES
-from ..models.spec import ParameterError
+from ..models.spec import ParameterError, given
 from .catalog import get_layout, layouts
 from .axes import VIEW, check_form, evaluated, midpoints, parse_axis
 from .compute import albedo_table
@@ -377,6 +377,20 @@ def table_plan(lay: dict, tab: dict, *, samples=None, match_published=False,
                      + (f": {basis}" if basis and target_stderr is None else "")}
 
 
+def check_only(name: str, only) -> list | None:
+    """``only`` (a table name or a list of them) as a list of tables of layout ``name``; None:
+    all."""
+    if only is None:
+        return None
+    names = [t["name"] for t in get_layout(name)["tables"]]
+    only = [only] if isinstance(only, str) else list(only)
+    unknown = [n for n in only if n not in names]
+    if unknown:
+        raise ParameterError(f"{given('only', unknown[0])} is not a table of layout {name}: "
+                             f"choose from {', '.join(names)}", "only")
+    return only
+
+
 def make_layout(name: str, *, samples=None, estimator=None, progress=False, command=None,
                 only=None, match_published: bool = False, **kw):
     """Every table of layout ``name`` (clbrdf/data/layouts.json); returns {table name: Table}.
@@ -388,13 +402,7 @@ def make_layout(name: str, *, samples=None, estimator=None, progress=False, comm
     quadrature; Filament's cloth channel: mis). ``only``: the names of the tables to make
     (default: all). ``target_stderr`` and ``max_samples`` in ``kw`` replace the layout's."""
     lay = get_layout(name)
-    names = [t["name"] for t in lay["tables"]]
-    if only is not None:
-        only = [only] if isinstance(only, str) else list(only)
-        unknown = [n for n in only if n not in names]
-        if unknown:
-            raise ParameterError(f"only={unknown[0]!r} is not a table of layout {name}: choose "
-                                 f"from {', '.join(names)}")
+    only = check_only(name, only)
     user_target, user_max = kw.pop("target_stderr", None), kw.pop("max_samples", None)
     out = {}
     for tab in lay["tables"]:
