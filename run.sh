@@ -81,7 +81,7 @@ if ! msg=$(probe); then
 fi
 
 # 5. for the tests: the compilers and the OpenCL headers the C API and examples are built with
-# (tests/test_capi.py, examples/run.sh), installed as root where missing
+# (tests/runtime/test_capi.py, examples/run.sh), installed as root where missing
 if [ "$MODE" = test ] && [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
     need=()
     for pkg in gcc g++ ocl-icd-opencl-dev; do

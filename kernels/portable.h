@@ -12,7 +12,7 @@
  *                       device overloads; never the native_* or fast-math functions
  * Outside OpenCL only W = 1 (one lane: realN is real_t) is supported; CLBRDF_SEPARATE_SINCOS is
  * set (sin and cos apart). Results agree with OpenCL's to a few ulps (the math libraries differ;
- * tests/test_capi.py states how many), not bit for bit.
+ * tests/runtime/test_capi.py states how many), not bit for bit.
  */
 #ifndef CLBRDF_PORTABLE_H
 #define CLBRDF_PORTABLE_H

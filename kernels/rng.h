@@ -177,7 +177,7 @@ FN uintN reverse_bits(uintN x)
  * a better LK hash", 2021). Burley's listing 2 hash (x += seed, then x ^= x * c for four
  * constants) leaves the low-order digits of the first 2^m points poorly randomised: on unshuffled
  * points its estimates were biased (GGX dielectric, cosine estimator, mu 0.05, 2^18 samples:
- * -2.1e-5 +- 2.6e-6 over 100 seeds; this hash -3.7e-6 +- 3.0e-6; tests/test_qmc.py). The bits
+ * -2.1e-5 +- 2.6e-6 over 100 seeds; this hash -3.7e-6 +- 3.0e-6; tests/runtime/test_qmc.py). The bits
  * are then put back in order. */
 FN realN sobol_scrambled(uintN xr, uintN seed)
 {

@@ -19,7 +19,7 @@
  * on log Q(a, x) = log q in x (nearly linear as q -> 0, where log Q ~ (a-1) log x - x - lgamma(a)).
  * Starting points: the lower-tail limit x = (p Gamma(a + 1))^(1/a), Wilson-Hilferty with the
  * normal quantile of Abramowitz & Stegun 26.2.23, and the upper-tail limit.
- * Measured against SciPy (tests/test_special.py): max relative error of x 1.2e-13 in double
+ * Measured against SciPy (tests/runtime/test_special.py): max relative error of x 1.2e-13 in double
  * precision, 1.2e-5 in single (where log p itself carries |log p| eps, amplified by 1/a; the
  * sampler uses x^(a/2), whose error is at most 3.6e-6).
  */

@@ -2,7 +2,7 @@
 """Write kernels/clbrdf_models.h, the per-model part of the C API (kernels/clbrdf.h), from the
 model descriptions (clbrdf/models/): each model's parameter struct, the defaults of its
 configuration macros, a function returning the parameters' defaults, and clbrdf_NAME_eval,
-_pdf and _sample around the kernel header's own functions. tests/test_capi.py checks that the
+_pdf and _sample around the kernel header's own functions. tests/runtime/test_capi.py checks that the
 file is current.
 
     python scripts/gen_capi.py [--check]

@@ -2,7 +2,7 @@
 the refractiveindex.info database (CC0; github.com/polyanskiy/refractiveindex.info-database):
 n and k at the R, G, B wavelengths 0.645, 0.526, 0.444 um (docs/models/microfacet.md), linear
 between the tabulated wavelengths; the tabulated rows from 0.40 to 0.70 um go to
-tests/data/metals_nk.csv, against which tests/test_metals.py checks the presets.
+tests/data/metals_nk.csv, against which tests/models/test_metals.py checks the presets.
 
     python scripts/metals.py PATH_TO_THE_DATABASE_CHECKOUT [COMMIT]
 """

@@ -1,4 +1,4 @@
-"""Tables in the two .npz formats of clbrdf 0.1.0, for tests/test_table_formats.py. Run with the
+"""Tables in the two .npz formats of clbrdf 0.1.0, for tests/tables/test_table_formats.py. Run with the
 0.1.0 tree (commit 2cc0bae) first on sys.path:
 
     git worktree add /tmp/clbrdf-010 2cc0bae

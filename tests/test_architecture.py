@@ -221,3 +221,16 @@ def test_the_private_name_check_can_fail(tmp_path):
     (pkg / "api" / "a.py").write_text("def _f():\n    pass\n")
     (pkg / "api" / "b.py").write_text("from .a import _f\nfrom . import a as _a\n")
     assert private_imports(pkg) == ["clbrdf.api.b:1 imports _f"]
+
+
+def test_the_tests_folders_mirror_the_packages():
+    """tests/ has a folder per layer of the package (docs/architecture.md), holding that layer's
+    tests; only the whole-repository tests (architecture, docs, the wheel) and the helpers stay at
+    the top, and no test file sits in a folder that is not a layer."""
+    tests = Path(__file__).resolve().parent
+    folders = {p.name for p in tests.iterdir() if p.is_dir() and not p.name.startswith((".", "_"))}
+    assert folders - {"data"} <= set(LAYERS), sorted(folders - {"data"} - set(LAYERS))
+    top = sorted(p.name for p in tests.glob("test_*.py"))
+    assert top == ["test_architecture.py", "test_docs.py", "test_wheel.py"], top
+    assert not list((tests / "data").rglob("test_*.py"))
+    assert all(list((tests / f).glob("test_*.py")) for f in folders - {"data"})

@@ -146,7 +146,7 @@ class Facts:
     # a near-mirror lobe's parameters for the accuracy chart (clbrdf.studies.accuracy): None
     # leaves the model out, {} charts its defaults only
     sharp: dict | None = None
-    # the roughest lobe the deterministic quadrature is held to (tests/test_quadrature.py)
+    # the roughest lobe the deterministic quadrature is held to (tests/runtime/test_quadrature.py)
     roughest: dict | None = None
     # the full configuration the ladder charts (clbrdf.studies.ladder); None: not charted
     ladder: dict | None = None
@@ -308,7 +308,7 @@ def check_directions(name: str, w: np.ndarray, tol: float = 1e-4, allow_below: b
 
 # The smallest accepted mu = cos(theta_o) per precision. Below the single-precision bound
 # 1 - mu^2 is 1 to the last bit and grazing lobes are no longer resolved; the conformance battery
-# (tests/test_conformance.py) checks every model down to these values.
+# (tests/models/test_conformance.py) checks every model down to these values.
 MU_MIN = {"single": 1e-6, "double": 1e-12}
 
 

@@ -43,7 +43,7 @@ from .quadrature import (
 
 def beta_ge1(a, b):
     """The Beta function B(a, b) for a, b >= 1 as Gamma(p) / poch(q, p) (p = min, q = max):
-    within 3e-11 of a 40-digit log B up to 1e7 (tests/test_special.py's); scipy.special.betaln
+    within 3e-11 of a 40-digit log B up to 1e7 (tests/runtime/test_special.py's); scipy.special.betaln
     cancels for a large argument (9e-8 off in log)."""
     p, q = np.minimum(a, b), np.maximum(a, b)
     with np.errstate(over="ignore", divide="ignore", invalid="ignore"):

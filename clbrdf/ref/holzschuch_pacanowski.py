@@ -12,7 +12,7 @@ slope done in closed form and ``y = (slope / sigma)^(2p)`` (a Gamma(1/p, 1) vari
     a = 1/p, y0 = nu^(-2p), K(z) = sqrt(z - 1) - arctan(sqrt(z - 1)),
 
 (``lambda_quad``; checked against the literal double integral of eq 20-21 and against Beckmann's
-closed form at p = 1 in tests/test_holzschuch_pacanowski.py). For large nu,
+closed form at p = 1 in tests/models/test_holzschuch_pacanowski.py). For large nu,
 ``Lambda -> nu m / pi - 1/2`` with ``m = E[slope / sigma] = Gamma(3/(2p)) / Gamma(1/p)``.
 
 Full model (eq 24-27), per channel with wavelength lambda (um):

@@ -1,6 +1,6 @@
 """Cross-checks of the C API (kernels/clbrdf.h): the same model configuration built as C99 with
 gcc, as OpenCL C on any platform (or under oclgrind), and run by the Python package, on the
-same inputs. Used by tests/test_capi.py and scripts/capi_platforms.py (docs/kernels.md).
+same inputs. Used by tests/runtime/test_capi.py and scripts/capi_platforms.py (docs/kernels.md).
 
 A case is (name, model, Python keywords); the C and OpenCL builds get the Python
 configuration's defines, so the three compute the same configuration. ``outputs`` per input

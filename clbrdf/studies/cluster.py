@@ -18,7 +18,7 @@ before the worker process starts: ``local_cluster`` puts it in
 ``distributed.nanny.pre-spawn-environ``. The variable is ``POCL_CPU_MAX_CU_COUNT`` from PoCL 4
 on and ``POCL_MAX_PTHREAD_COUNT`` before: PoCL 3.0 and 3.1 (PyPI's and Debian's here) report 2
 compute units on 2 cores with ``POCL_CPU_MAX_CU_COUNT=1`` and 1 with ``POCL_MAX_PTHREAD_COUNT=1``
-(tests/test_sweep_cluster.py), so both are set (``POCL_THREAD_VARIABLES``). For workers you
+(tests/studies/test_sweep_cluster.py), so both are set (``POCL_THREAD_VARIABLES``). For workers you
 start yourself: ``POCL_CPU_MAX_CU_COUNT=T POCL_MAX_PTHREAD_COUNT=T dask worker ADDRESS
 --nthreads 1`` (T cores per worker).
 """

@@ -264,7 +264,7 @@ def magnitudes(m, wo, config: dict, tol: float = MAGNITUDE_TOL):
     normal incidence) met MAGNITUDE_TOL before any panel was cut, its estimate fooled by the drop
     (GGX alpha 0.016 at mu 1: 1.84e-7 +- 3e-9, the truth 2.236e-7). B is therefore integrated
     again to B_RELATIVE of its first value: then |B - truth| <= 2.2 err on a 16 x 16 grid of
-    the threejs layout's cells, against the float64 reference (tests/test_ltc.py). A cell that
+    the threejs layout's cells, against the float64 reference (tests/tables/test_ltc.py). A cell that
     stops above its target (at the evaluation cap) raises: a magnitude is never stored less
     accurate than it says."""
     double = m.device.info.has_fp64

@@ -24,7 +24,7 @@
 #
 # Environment: PYTHON (default python3), NVCC (default nvcc), CUDA_ARCH (default native),
 # JOBS (parallel builds, default nproc); for the CPU test of this script
-# (tests/test_gpu_check.py): CLBRDF_GPU_CHECK_BACKEND=cpu builds the same programs with CXX
+# (tests/runtime/test_gpu_check.py): CLBRDF_GPU_CHECK_BACKEND=cpu builds the same programs with CXX
 # (default g++) and runs them on the host, CLBRDF_GPU_CHECK_OPENCL=any runs step 2 on any
 # OpenCL device (else: auto, NVIDIA's only; skip), CLBRDF_GPU_CHECK_NO_INSTALL=1 uses PYTHON's
 # own clbrdf instead of the wheels, CLBRDF_GPU_CHECK_QUICK=1 makes step 2 and 3 small (the
@@ -188,7 +188,7 @@ else
     [ "$QUICK" = 1 ] && K=(-k "ggx and not dielectric") || K=()
     (cd "$B" && timeout $(lim 300) "$PY" -m pytest -q -p no:cacheprovider -o addopts="" -m "not slow" "${K[@]}" \
         -W ignore::clbrdf.api.useless.UselessEstimatorWarning --rootdir "$B" \
-        --junitxml "$OUT/opencl/conformance.xml" tests/test_conformance.py) \
+        --junitxml "$OUT/opencl/conformance.xml" tests/models/test_conformance.py) \
         > "$OUT/opencl/conformance.txt" 2>&1
     echo $? > "$OUT/opencl/conformance.rc"
     for m in $(ls "$B/check" | sed 's/\.json$//'); do

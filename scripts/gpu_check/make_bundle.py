@@ -45,7 +45,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent.parent
 # the agreement the GPU must reach with the CPU's Python values: the C99 build's bound of
-# tests/test_capi.py (units of eps, clbrdf.studies.capi.ulps), the same for the albedo's mean
+# tests/runtime/test_capi.py (units of eps, clbrdf.studies.capi.ulps), the same for the albedo's mean
 # weight relative to its mean |weight|
 ULPS = {"single": 64, "double": 64}
 ALBEDO_SAMPLES, ALBEDO_SEED, ALBEDO_MU = 1 << 16, 11, (0.2, 0.6, 1.0)

@@ -7,7 +7,7 @@ and OUT/report.json. Exit 0 when every check that ran passed, 1 otherwise.
 
 Agreement per case and precision: the largest difference over f, pdf, the sampled wi, its
 weight and pdf in units of the precision's eps (clbrdf.studies.capi.ulps, the measure of
-tests/test_capi.py and docs/kernels.md), within the case's bound (case.json); the albedo's mean
+tests/runtime/test_capi.py and docs/kernels.md), within the case's bound (case.json); the albedo's mean
 weight within the same number of eps of its mean |weight|; the CUDA example within examples/
 expected.json's relative tolerance (the same samples); the Cycles table within cycles.json's
 relative tolerance of the CPU's table from the same samples (its distance to the quadrature, the

@@ -1,6 +1,6 @@
 """The rough dielectric's own claims (docs/models/dielectric.md): the smooth limit, eta = 1 as no
 interface, the two sides, the transport conventions, and its bad input. The shared battery
-(tests/test_conformance.py, tests/test_check.py) covers eval, pdf, sampling and albedo against the
+(tests/models/test_conformance.py, tests/studies/test_check.py) covers eval, pdf, sampling and albedo against the
 float64 reference."""
 import warnings
 

@@ -237,7 +237,7 @@ WIDTH_CONFIGS = [pytest.param(c, id=S.config_id(c)) for c in (
 )] + [pytest.param(c, id=S.config_id(c), marks=pytest.mark.slow) for c in COVER[1:]]
 
 
-@pytest.mark.slow       # the default run has every model's widths (tests/test_all_models.py)
+@pytest.mark.slow       # the default run has every model's widths (tests/models/test_all_models.py)
 @pytest.mark.parametrize("width", [1, 4, 8])
 @pytest.mark.parametrize("precision", ["single", "double"])
 @pytest.mark.parametrize("cfg", WIDTH_CONFIGS)

@@ -13,7 +13,7 @@ import pytest
 
 import clbrdf
 
-DATA = Path(__file__).parent / "data" / "v0.1.0"
+DATA = Path(__file__).parents[1] / "data" / "v0.1.0"
 
 
 def raw(name):

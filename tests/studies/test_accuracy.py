@@ -57,7 +57,7 @@ def test_single_precision_chart_has_no_empty_panels():
     from pathlib import Path
     from clbrdf.studies import accuracy as A
     rows = []
-    with open(Path(__file__).parent.parent / "docs/accuracy/accuracy.csv", newline="") as f:
+    with open(Path(__file__).parents[2] / "docs/accuracy/accuracy.csv", newline="") as f:
         for r in csv.DictReader(f):
             for k in ("samples", "seconds", "rms", "max"):
                 r[k] = float(r[k])

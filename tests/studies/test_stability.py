@@ -227,7 +227,7 @@ def test_stability_chart_title_fits_every_model():
     figure's width. Rendered from the shipped map, every model: no text cut off."""
     from pathlib import Path
     from figures import text_boxes
-    rows = U.read_csv(Path(__file__).parent.parent / "docs/stability/stability.csv")
+    rows = U.read_csv(Path(__file__).parents[2] / "docs/stability/stability.csv")
     width = {}
     for r in rows:
         width.setdefault(r["model"], set()).add((r["estimator"], r["sampler"]))

@@ -10,7 +10,7 @@ tables, no series).
 
 What every model gets (values and densities against the reference, single against double
 precision, RGB, the sampler's chi-square and weights, the albedo) is the conformance battery's
-(tests/test_conformance.py) and clbrdf check's (tests/test_check.py); this file keeps what is
+(tests/models/test_conformance.py) and clbrdf check's (tests/studies/test_check.py); this file keeps what is
 specific to the paper.
 """
 from __future__ import annotations
@@ -185,7 +185,7 @@ def test_gtr_continuous_at_gamma_one(model_cache):
 
 
 # ---------------------------------------------------------------------------------------------
-# sampling: pdf normalisation and chi-square (stats.HalfVectorMap, as tests/test_sampling.py)
+# sampling: pdf normalisation and chi-square (stats.HalfVectorMap, as tests/runtime/test_sampling.py)
 
 NS_FINE, NT_FINE = 128, 256
 NB_S, NB_T = 32, 32

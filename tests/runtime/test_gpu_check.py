@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 GC = ROOT / "scripts" / "gpu_check"
 sys.path.insert(0, str(GC))
 import report  # noqa: E402

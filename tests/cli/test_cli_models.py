@@ -1,7 +1,7 @@
 """`clbrdf albedo` and `clbrdf table` work for every registered model, with its defaults and with a
 preset where it has presets: exit 0, finite albedos in [0, 1.5], one per channel, and a table
 file whose E agrees with the Python API's bit for bit. In the test process (tests/cliutil.py;
-tests/test_cli.py runs the command line as a subprocess)."""
+tests/cli/test_cli.py runs the command line as a subprocess)."""
 import json
 
 import numpy as np

@@ -311,7 +311,7 @@ def test_older_ltc_layout_files_load():
     legacy, written by commit 707016e's save_ltc) load with load_tables: the .npz and the .exr
     of one run give the same textures, errors and axes (the .exr's from the layout's axis
     texts), and a texture's E channel is the fit's E."""
-    data = Path(__file__).parent / "data" / "legacy"
+    data = Path(__file__).parents[1] / "data" / "legacy"
     a = load_tables(data / "ltc_cycles_sheen_0.1.npz")
     b = load_tables(data / "ltc_cycles_sheen_0.1.exr")
     assert set(a) == set(b) == {"ltc", "table_sheen_ltc"}

@@ -60,7 +60,7 @@ def test_value_errors_against_the_float64_references():
 
 @pytest.mark.parametrize("name, kw, to, bound", [
     ("gtr", {"alpha": 0.3, "gamma": 2.0}, "model=ggx", 2e-4),       # GTR gamma 2 is GGX
-    # exp-power p 1 is Beckmann (tests/test_holzschuch_pacanowski.py holds the kernels to it)
+    # exp-power p 1 is Beckmann (tests/models/test_holzschuch_pacanowski.py holds the kernels to it)
     pytest.param("exppow", {"alpha": 0.3, "p": 1.0}, "model=beckmann", 1e-4, marks=pytest.mark.slow),
 ])
 def test_analytic_rung_is_the_same_distribution(name, kw, to, bound):
@@ -166,7 +166,7 @@ def test_ladder_chart_labels_do_not_overprint():
     import csv
     from pathlib import Path
     from figures import assert_texts_readable
-    rows = list(csv.DictReader(open(Path(__file__).parent.parent / "docs/ladder/ladder.csv")))
+    rows = list(csv.DictReader(open(Path(__file__).parents[2] / "docs/ladder/ladder.csv")))
     for r in rows:
         for k in ("value_error", "albedo_error", "evals_per_s", "samples_per_s"):
             r[k] = float(r[k])
@@ -215,7 +215,7 @@ def test_a_partial_chart_run_keeps_the_other_models_rows(tmp_path):
     import csv
     from pathlib import Path
     from clbrdf.tables.outputs import csv_rows
-    shipped = Path(__file__).parent.parent / "docs/ladder/ladder.csv"
+    shipped = Path(__file__).parents[2] / "docs/ladder/ladder.csv"
     (tmp_path / "ladder.csv").write_text(shipped.read_text())
     kept = csv_rows(tmp_path / "ladder.csv", L.FIELDS[4:], without=["ggx"])
     models = {r["model"] for r in kept}

@@ -3,21 +3,26 @@
 
 What every model gets (values and densities against the reference, single against double
 precision, RGB, the sampler's chi-square and weights, the albedo) is the conformance battery's
-(tests/test_conformance.py) and clbrdf check's (tests/test_check.py); this file keeps what is
+(tests/models/test_conformance.py) and clbrdf check's (tests/studies/test_check.py); this file keeps what is
 specific to the paper.
 
-``python tests/test_low.py`` prints the
-variance table of docs/models/low.md, ``python tests/test_low.py energy`` the presets' largest
+``python tests/models/test_low.py`` prints the
+variance table of docs/models/low.md, ``python tests/models/test_low.py energy`` the presets' largest
 albedos.
 """
 from __future__ import annotations
 
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import clbrdf
-import stats as S
+
+if __name__ == "__main__":     # run as a script: the tests' helpers are a folder up
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import stats as S  # noqa: E402
 from clbrdf.models import presets
 from clbrdf.ref import microfacet as R
 from clbrdf.ref import low as L
@@ -308,7 +313,7 @@ def test_microfacet_csv_and_fit_agree():
 
 
 # ---------------------------------------------------------------------------------------------
-# the variance table (docs/models/low.md): python tests/test_low.py
+# the variance table (docs/models/low.md): python tests/models/test_low.py
 
 def variance_table(mus=(1.0, 0.5), bs=(1e2, 1e4, 1e6, 1e8),
                    cs=(0.5, 0.8, 0.95, 0.99, 1.0, 1.01, 1.05, 1.2, 1.5, 2.0), eta=1.5):

@@ -267,7 +267,7 @@ def test_albedo_stderr_is_honest(estimator, qmc, model_cache):
     error estimate 1.5 times too small moves the first p to 0.82, one 1.5 times too large moves
     the second to 0.87 (acceptance intervals about +-6%). This is the sampling error
     (``sampling_stderr``); the reported ``stderr`` adds what the samples cannot see
-    (tests/test_unseen.py)."""
+    (tests/api/test_unseen.py)."""
     kw = S.model_kwargs(mf("ggx", False, "correlated", "schlick", False, "vndf"), alpha=0.3)
     m = model_cache("ggx", **kw)
     mu = 0.5

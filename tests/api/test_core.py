@@ -68,7 +68,7 @@ def test_sample_weight_is_f_cos_over_pdf(name, kw):
 
 @pytest.mark.parametrize("name,kw", CONFIGS)
 @pytest.mark.parametrize("estimator,qmc", [("brdf", False)] + [
-    pytest.param(e, q, marks=pytest.mark.slow)    # every estimator: tests/test_sampling.py
+    pytest.param(e, q, marks=pytest.mark.slow)    # every estimator: tests/runtime/test_sampling.py
     for e, q in (("uniform", False), ("cosine", True), ("brdf", True), ("mis", False))])
 def test_albedo_within_4_stderr_of_reference(name, kw, estimator, qmc):
     mu = np.array([0.08, 0.4, 0.95])

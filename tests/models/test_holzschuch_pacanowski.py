@@ -6,7 +6,7 @@ Figure 12a (a = 0.91, sigma = 0.027, p = 0.51).
 
 What every model gets (values and densities against the reference, single against double
 precision, RGB, the sampler's chi-square and weights, the albedo) is the conformance battery's
-(tests/test_conformance.py) and clbrdf check's (tests/test_check.py); this file keeps what is
+(tests/models/test_conformance.py) and clbrdf check's (tests/studies/test_check.py); this file keeps what is
 specific to the paper.
 """
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """The generalised Schlick (free exponent, Cycles) and F82-tint (Hoffman 2023) Fresnel terms of
 the microfacet models (kernels/fresnel.h): their exact F_avg for Kulla-Conty, the F82 design
 property F(1/7) = tint F_Schlick(1/7), and where F82-tint is clamped. The battery
-(tests/test_conformance.py, test_check.py) draws fresnel=gen_schlick and f82 by itself."""
+(tests/models/test_conformance.py, test_check.py) draws fresnel=gen_schlick and f82 by itself."""
 import numpy as np
 import pytest
 

@@ -20,7 +20,7 @@ from clbrdf.runtime.build import kernel_dir
 from clbrdf.runtime.device import compiler_error, list_devices
 from clbrdf.models import MODELS
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 KERNELS = kernel_dir()
 WARN = capi.WARN
 # measured: at most 35 (single), 49 (double; Beckmann's pdf, anisotropic GGX's sampled wi.z)

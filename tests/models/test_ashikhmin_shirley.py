@@ -3,13 +3,16 @@ eq 19-20 with the lobe mixture, the paper's energy claims, and Löw et al.'s fit
 
 What every model gets (values and densities against the reference, single against double
 precision, RGB, the sampler's chi-square and weights, the albedo) is the conformance battery's
-(tests/test_conformance.py) and clbrdf check's (tests/test_check.py); this file keeps what is
+(tests/models/test_conformance.py) and clbrdf check's (tests/studies/test_check.py); this file keeps what is
 specific to the paper.
 
-``python tests/test_ashikhmin_shirley.py`` prints the numbers of docs/models/ashikhmin_shirley.md
+``python tests/models/test_ashikhmin_shirley.py`` prints the numbers of docs/models/ashikhmin_shirley.md
 (energy sweep of the specular term, Figure 2 furnace value).
 """
 from __future__ import annotations
+
+import sys
+from pathlib import Path
 
 import math
 
@@ -17,7 +20,10 @@ import numpy as np
 import pytest
 
 import clbrdf
-import stats as S
+
+if __name__ == "__main__":     # run as a script: the tests' helpers are a folder up
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import stats as S  # noqa: E402
 from clbrdf.models import presets
 from clbrdf.ref import ashikhmin_shirley as A
 

@@ -40,7 +40,7 @@ def test_fit_files_parse_completely(source):
 def test_shipped_data_matches_shared_copy():
     """The package carries the same bytes as the project's shared data (when it is present)."""
     from pathlib import Path
-    shared = Path(__file__).resolve().parents[2] / "shared" / "data" / "published_fits"
+    shared = Path(__file__).resolve().parents[3] / "shared" / "data" / "published_fits"
     if not shared.is_dir():
         pytest.skip("no shared/ beside the repository")
     for f in FILES + ["SOURCES.md"]:

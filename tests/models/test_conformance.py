@@ -250,11 +250,11 @@ QUAD_SHORT = {("ggx", "masking=none"), ("beckmann", "masking=none"), ("exppow", 
               ("schlick", "directional=eq12"), ("schlick", "+p"), ("schlick", "+psi")}
 
 
-@tiered(set(), ALBEDO_CASES)     # slow tier: the default run has tests/test_quadrature.py
+@tiered(set(), ALBEDO_CASES)     # slow tier: the default run has tests/runtime/test_quadrature.py
 def test_quadrature_matches_reference(name, cid, kw):
     """Double precision, mu = 0.5 and 0.9, tol 1e-6, every channel: |E - E_ref| within the
     larger of tol and the error estimate, plus the reference's error and 3 |dG1| E for the
-    tabulated models (tests/test_quadrature.py); the estimate at most tol except in QUAD_SHORT,
+    tabulated models (tests/runtime/test_quadrature.py); the estimate at most tol except in QUAD_SHORT,
     where it must exceed it (and the RuntimeWarning says so)."""
     import warnings
     m = _model(name, kw)

@@ -28,7 +28,7 @@ from clbrdf.tables.files import save_tables
 from clbrdf.tables.table import Table, load_tables
 from cliutil import run_inprocess
 
-DATA = Path(__file__).parent / "data" / "renderers"
+DATA = Path(__file__).parents[1] / "data" / "renderers"
 EPS32 = float(np.finfo(np.float32).eps)
 N = 1 << 20
 REFLECTION = ("table_ggx_E", "table_ggx_Eavg")    # Cycles' GGX tables (the glass ones: below)
@@ -748,7 +748,7 @@ def test_every_layout_is_well_formed():
 # files and the header
 
 LAYOUTS_COMPILED = ["cycles", "threejs", "ue5", "openpbr", "rgb-preset"]
-# an RGB model's tables (a MERL fit with a per-channel axis, tests/test_table_paths.py's case
+# an RGB model's tables (a MERL fit with a per-channel axis, tests/tables/test_table_paths.py's case
 # preset-spectral-axis): one quantity, channels E.R, E.G, E.B
 RGB_PRESET = ("beckmann", [{"name": "mu", "values": [0.2, 0.5, 0.9]},
                            {"name": "kd", "values": [0.0, 0.3, 0.6, 0.9]}], {"preset": "alum-bronze"})
@@ -1009,7 +1009,7 @@ def test_example_program_returns_the_lost_energy(tmp_path):
         pytest.skip("gcc not installed")
     save_tables(make_layout("cycles", samples=1 << 14, only=REFLECTION), tmp_path / "ggx_E.h",
                 prefix="cycles")
-    src = Path(__file__).parent.parent / "examples" / "energy_compensation.c"
+    src = Path(__file__).parents[2] / "examples" / "energy_compensation.c"
     subprocess.run([cc, "-std=c99", "-Wall", "-Wextra", "-Werror", "-I", str(tmp_path), str(src),
                     "-o", str(tmp_path / "ec"), "-lm"], check=True)
     out = subprocess.run([str(tmp_path / "ec")], capture_output=True, text=True,

@@ -31,7 +31,7 @@ import clbrdf
 from clbrdf.ref import microfacet as REF
 from clbrdf.ref import distributions as RD
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 # The documented bound of max |G1 - G1_quad| of the kernels' tables over the whole range they
 # serve (docs/models/distributions.md): scripts/measure_lambda_tables.py measured 1.9e-4 (GTR,

@@ -13,7 +13,7 @@ from clbrdf.ref.microfacet import fresnel
 from clbrdf.studies import ladder
 from clbrdf.studies.fresnel_fits import FITS, fit_conductor, fresnel_errors
 
-NK = Path(__file__).parent / "data" / "metals_nk.csv"
+NK = Path(__file__).parents[1] / "data" / "metals_nk.csv"
 RGB_UM = (0.645, 0.526, 0.444)         # docs/models/microfacet.md
 METALS = ("gold", "silver", "copper", "chromium", "aluminium")
 
