@@ -30,7 +30,9 @@ class HalfVectorMap:
         self.co = float(self.wo[2])
         self.phio = math.atan2(self.wo[1], self.wo[0])
 
-    def _frame(self, t):
+    def frame(self, t):
+        """(azimuth of h, tan theta_h / rho, the largest x) along t: the map's part that depends
+        on t only."""
         phi = 2 * np.pi * t
         c, s = np.cos(phi), np.sin(phi)
         phih = np.arctan2(self.ay * s, self.ax * c)           # azimuth of h
@@ -40,9 +42,10 @@ class HalfVectorMap:
         xmax = np.arcsinh(np.tan(tmax) / a)
         return phih, a, xmax
 
-    def points(self, s, t):
-        """Directions wi for (s, t) and the Jacobian dw_i / (ds dt)."""
-        phih, a, xmax = self._frame(t)
+    def points(self, s, t, frame=None):
+        """Directions wi for (s, t) and the Jacobian dw_i / (ds dt); ``frame``: ``frame(t)``
+        computed once where t repeats (a grid's rows), broadcast against s."""
+        phih, a, xmax = self.frame(t) if frame is None else frame
         x = s * xmax
         rho = np.sinh(x)
         tan_t = a * rho
@@ -62,7 +65,7 @@ class HalfVectorMap:
         px = h[..., 0] / (h[..., 2] * self.ax)
         py = h[..., 1] / (h[..., 2] * self.ay)
         t = np.mod(np.arctan2(py, px) / (2 * np.pi), 1.0)
-        _, _, xmax = self._frame(t)
+        _, _, xmax = self.frame(t)
         s = np.arcsinh(np.hypot(px, py)) / xmax
         return np.clip(s, 0, 1 - 1e-12), np.clip(t, 0, 1 - 1e-12)
 
@@ -77,13 +80,15 @@ def panel_integrals(hmap, pdf, ns, nt, order):
     order x order Gauss-Legendre rule per panel. pdf: function of an (..., 3) array of wi."""
     x, w = gl01(order)
     t = ((np.arange(nt)[:, None] + x) / nt).reshape(-1)
+    # a map whose directions depend on t through frame(t) (HalfVectorMap): once, not per row
+    frame = hmap.frame(t) if hasattr(hmap, "frame") else None
     rows = max(1, (1 << 20) // (order * order * nt))      # panel rows per call: memory stays flat
     out = np.empty((ns, nt))
     for i0 in range(0, ns, rows):
         i1 = min(ns, i0 + rows)
         s = ((np.arange(i0, i1)[:, None] + x) / ns).reshape(-1)
         S, T = np.meshgrid(s, t, indexing="ij")
-        wi, jac = hmap.points(S, T)
+        wi, jac = hmap.points(S, T) if frame is None else hmap.points(S, T, frame)
         v = np.asarray(pdf(wi.reshape(-1, 3)), float).reshape(S.shape) * jac
         v = np.where(np.isfinite(v), v, np.nan)   # a non-finite pdf poisons the sums visibly
         out[i0:i1] = np.einsum("iajb,a,b->ij", v.reshape(i1 - i0, order, nt, order), w, w)
