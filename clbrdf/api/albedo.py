@@ -10,11 +10,19 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..models.microfacet import FRESNEL_NAMES
-from ..models.choices import ESTIMATORS, MC_ESTIMATORS
-from ..models.spec import ParameterError, check_choice, check_int, check_mu, finite_or_raise, given
+from ..models.choices import ESTIMATORS
+from ..models.spec import (
+    ParameterError,
+    check_choice,
+    check_fraction,
+    check_int,
+    check_mu,
+    finite_or_raise,
+    given,
+)
 from ..runtime.albedo import run_probe, runner
 from ..runtime.launch import seed_words
-from ..runtime.quadrature import QUAD_MAX_EVALS, quadrature_runner
+from ..runtime.quadrature import check_max_evals, quadrature_runner
 from .model import Model
 from .useless import warn_if_useless
 
@@ -98,12 +106,8 @@ def albedo(m: Model | str, mu, phi=0.0, *, estimator: str = "brdf", samples: int
             raise ParameterError("qmc=True is not valid with estimator='quadrature': the "
                                  "quadrature draws no random numbers")
         tol = QUAD_TOL[m.precision] if tol is None else tol
-        if isinstance(tol, bool) or not isinstance(tol, (int, float, np.floating, np.integer)) \
-                or not 0 < float(tol) < 1:
-            raise ParameterError(f"tol={tol!r} is out of range: valid tol is in (0, 1)")
-        tol = float(tol)
-        max_evals = check_int("max_evals", QUAD_MAX_EVALS if max_evals is None
-                                      else max_evals, 1 << 18, 1 << 34, "[2^18, 2^34]")
+        tol = check_fraction("tol", tol)
+        max_evals = check_max_evals(max_evals)
     else:
         samples = check_int("samples", samples, 2, 2**32 - 1, "[2, 2^32)")
         seed_words(seed)
@@ -134,7 +138,7 @@ def albedo(m: Model | str, mu, phi=0.0, *, estimator: str = "brdf", samples: int
     warn_if_useless(m, np.broadcast_to(mu, shape), estimator)
     est, err, plan, seconds, seen = runner()(m, shape, wo, estimator=estimator, samples=samples,
                                              seed=seed, qmc=qmc, progress=progress)
-    scale = weight_scale(m, shape, wo, estimator, est, qmc, seen=seen, sampling=err)
+    scale = weight_scale(m, shape, wo, estimator, est, seen=seen, sampling=err)
     honest = reported_error(err, unseen(scale, plan.samples), rounding_floor(m.precision, est))
     return AlbedoResult(est.reshape(cshape), honest.reshape(cshape), np.broadcast_to(mu, shape),
                         estimator, plan.samples, qmc, int(seed), m.precision, seconds,
@@ -172,7 +176,7 @@ def unseen(scale, n, alpha: float = UNSEEN_ALPHA):
     return math.log(1 / alpha) * np.asarray(scale, dtype=np.float64) / np.asarray(n, np.float64)
 
 
-def weight_scale(m: Model, shape, wo_rows, estimator: str, est=None, qmc: bool = False,
+def weight_scale(m: Model, shape, wo_rows, estimator: str, est=None,
                  seen=None, sampling=None):
     """W of ``unseen`` for each point of ``shape`` (points, channels): the largest weight of
     one sample of the estimator over 108 deterministic probes, the same for every point: the
@@ -195,7 +199,7 @@ def weight_scale(m: Model, shape, wo_rows, estimator: str, est=None, qmc: bool =
     over independent samples (a kinked or heavy-tailed integrand: their spread s near the
     independent one s_ind) the plain W applies in that proportion:
     W = max(low, high) + W_plain s / s_ind (docs/accuracy/unseen.md, "With Sobol points")."""
-    hi, lo = run_probe(m, shape, wo_rows, estimator=estimator, qmc=qmc)
+    hi, lo = run_probe(m, shape, wo_rows, estimator=estimator)
     flat = rounding_floor(m.precision, hi)
     e = None if est is None else np.abs(np.asarray(est, np.float64).reshape(hi.shape))
     if e is not None:

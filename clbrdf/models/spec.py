@@ -336,6 +336,17 @@ def check_choice(name: str, value, choices):
     return value
 
 
+def check_fraction(name: str, value, hi: float = 1.0, text: str = "") -> float:
+    """A number in (0, hi) (a tolerance, a standard error target, a probability); True and
+    non-numbers are not. ``text`` says what it is, after the range."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer,
+                                                                      np.floating)) \
+            or not 0 < float(value) < hi:
+        raise ParameterError(f"{given(name, value)} is out of range: valid {called(name)} is in "
+                             f"(0, {hi:g}){text}", name)
+    return float(value)
+
+
 def check_int(name: str, value, lo: int, hi: int, text: str | None = None) -> int:
     """An integer in [lo, hi]: 3 and 3.0 are accepted, 1.5, True, '3' and NaN are not."""
     ok = isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))

@@ -241,7 +241,7 @@ def probe_numbers(dtype) -> np.ndarray:
                      np.full(PROBES, 0.5 * one, dtype)], axis=1)
 
 
-def run_probe(m, shape, wo_rows, *, estimator: str, qmc: bool):
+def run_probe(m, shape, wo_rows, *, estimator: str):
     """The largest and smallest weight of the estimator over its probes at every point of
     ``shape``: two arrays (points, channels), each non-finite weight counted as 0. A probe is
     one sample of the model's sampler at ``probe_numbers``: its weight for brdf, twice it for
@@ -249,7 +249,7 @@ def run_probe(m, shape, wo_rows, *, estimator: str, qmc: bool):
     direction times the estimator's own |cos| / pdf for uniform and cosine (where a sharp lobe
     is, which their own directions rarely reach). It runs the batch program's sample kernel
     (and eval's), which every configuration has: no kernel of its own to compile (it was 264
-    of 1861 compilations of a cold test run). ``qmc`` does not change the probes."""
+    of 1861 compilations of a cold test run): the same probes for either generator."""
     npts = math.prod(shape)
     nch = m.channels
     u = probe_numbers(m.dtype)

@@ -8,7 +8,7 @@ import time
 import numpy as np
 from numpy.polynomial import legendre as L
 
-from ..models.spec import Setting
+from ..models.spec import Setting, check_int
 from .albedo import LAUNCH_SECONDS
 from .launch import kernel, ndrange, ndrange_with, progress_bar
 
@@ -18,6 +18,13 @@ QUAD_FIRST_PANELS = 16      # panels per axis at the start, equal in v (the kern
                             # puts the nodes near the edges of the square); 8 missed a kink
                             # (GGX alpha 0.5, mu 0.5: 2.9e-6 off, estimated 8e-8)
 QUAD_MAX_EVALS = 1 << 24    # integrand evaluations per point, at most (default)
+
+
+def check_max_evals(max_evals) -> int:
+    """The quadrature's evaluations per point, at most: QUAD_MAX_EVALS for None, else an
+    integer in [2^18, 2^34]."""
+    return check_int("max_evals", QUAD_MAX_EVALS if max_evals is None else max_evals,
+                     1 << 18, 1 << 34, "[2^18, 2^34]")
 QUAD_GROUP = 16             # points refined together; host memory is at most about QUAD_GROUP x
                             # max_evals / 405 panels: 64 Ashikhmin-Shirley points at the 2^24 cap
                             # kept 300 MB resident (720 MB with 64 per group); the 32 x 32 GGX

@@ -36,7 +36,7 @@ import numpy as np
 from ..api.albedo import albedo, fresnel_avg
 from ..api.model import Model
 from ..api.walk import walk_albedo, walk_sample
-from ..models.spec import ParameterError, given
+from ..models.spec import ParameterError, check_fraction, given
 from ..tables.outputs import csv_text, write_together
 from .settings import ALPHAS, GLASS_ETAS, LOBE_MUS, METALS, MUS
 
@@ -499,10 +499,7 @@ def recommend(model: str, tolerance: float, *, walks: int = 1 << 20, seed: int =
     alpha_y, any Fresnel or a preset) or rough glass (``ggx_dielectric``: alpha, eta) needs at
     ``tolerance``, measured against the random walk at this configuration."""
     t0 = time.perf_counter()
-    if isinstance(tolerance, bool) or not isinstance(tolerance, (int, float)) or \
-            not 0 < float(tolerance) < 1:
-        raise ParameterError(f"tolerance={tolerance!r} is out of range: valid tolerance is in "
-                             "(0, 1) (relative error of E)")
+    check_fraction("tolerance", tolerance, text=" (relative error of E)")
     if model not in ("ggx", "ggx_dielectric"):
         raise ParameterError(f"model={model!r}: compensation is measured for ggx (conductors) "
                              "and ggx_dielectric (glass)")

@@ -19,7 +19,14 @@ from ..api.albedo import (
 from ..api.model import Model
 from ..models import get_spec, presets
 from ..models.choices import ERROR_RATE, MAX_GROWTH, MC_ESTIMATORS, PRECISIONS, WIDTHS
-from ..models.spec import ParameterError, called, check_choice, check_int, check_mu, given
+from ..models.spec import (
+    ParameterError,
+    called,
+    check_choice,
+    check_fraction,
+    check_int,
+    check_mu,
+)
 from ..runtime.albedo import QMC_STREAMS, run_albedo
 from ..runtime.device import resolve_devices
 from ..runtime.launch import derive_seed, seed_words, working_width
@@ -142,15 +149,9 @@ def make_job(model: str, *, axes=None, random=None, directions=None, samples: in
     max_samples = check_int("max_samples", max_samples, samples, 2**40,
                                     f"[samples={samples}, 2^40]")
     if target_stderr is not None:
-        if isinstance(target_stderr, bool) or not 0 < float(target_stderr) < 1:
-            raise ParameterError(f"{given('target_stderr', target_stderr)} is out of range: valid "
-                                 f"is (0, 1)", "target_stderr")
-        target_stderr = float(target_stderr)
-    if isinstance(error_rate, bool) or not isinstance(error_rate, (int, float)) or \
-            not 0 < float(error_rate) < 0.5:
-        raise ParameterError(f"{given('error_rate', error_rate)} is out of range: valid "
-                             f"{called('error_rate')} (the "
-                             f"probability that a point's verdict is wrong) is in (0, 0.5)")
+        target_stderr = check_fraction("target_stderr", target_stderr)
+    check_fraction("error_rate", error_rate, 0.5,
+                   " (the probability that a point's verdict is wrong)")
     seed_words(seed)
     # the configuration at a few points of the box checks the fixed parameters and axes together
     channels = fixed.pop("channels", None)     # a published fit; fixed parameters override it
@@ -354,7 +355,7 @@ def compute_chunk(job: dict, index: int, device) -> dict:
                                          point0=id0, **est)
         if scale:           # the unseen-event scale W of each estimate (core.weight_scale)
             return e, s, plan.samples, weight_scale(m, (len(rows),), wo, job["estimator"], e,
-                                                    job["qmc"], seen=seen, sampling=s)
+                                                    seen=seen, sampling=s)
         return e, s, plan.samples
     # look 0: pair k of point i0 + k // D has generator index (i0 D + k), split where the 32-bit
     # index wraps (the part above 2^32 goes into the seed)

@@ -76,13 +76,18 @@ def ltc_axes(lay: dict) -> list:
     return list(lay["tables"][0]["axes"])
 
 
-def ltc_formats(name: str) -> tuple:
-    """The suffixes LTC layout ``name`` is written as (its "formats")."""
+def get_ltc_layout(name: str) -> dict:
+    """LTC layout ``name``'s description."""
     lays = ltc_layouts()
     if name not in lays:
         raise ParameterError(f"{given('layout', name)} is not an LTC layout: choose one of "
                              f"{', '.join(sorted(lays))}", "layout")
-    return tuple(lays[name]["formats"])
+    return lays[name]
+
+
+def ltc_formats(name: str) -> tuple:
+    """The suffixes LTC layout ``name`` is written as (its "formats")."""
+    return tuple(get_ltc_layout(name)["formats"])
 
 
 def get_layout(name: str) -> dict:

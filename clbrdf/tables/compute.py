@@ -21,7 +21,15 @@ from ..api.albedo import (
 from ..api.model import Model
 from ..models import get_spec
 from ..models.choices import MAX_GROWTH
-from ..models.spec import ParameterError, called, check_int, check_mu, finite_or_raise, given
+from ..models.spec import (
+    ParameterError,
+    called,
+    check_fraction,
+    check_int,
+    check_mu,
+    finite_or_raise,
+    given,
+)
 from ..runtime.launch import derive_seed, environment
 from ..runtime.quadrature import QUAD_MAX_EVALS
 from ..version import __version__
@@ -197,9 +205,7 @@ def albedo_table(name: str, axes: dict, *, samples: int = 1 << 16, estimator: st
             raise ParameterError(f"{called('target_stderr')} is for the Monte Carlo "
                                  f"estimators; the quadrature's target is {called('tol')}",
                                  "target_stderr")
-        if isinstance(target_stderr, bool) or not 0 < float(target_stderr) < 1:
-            raise ParameterError(f"{given('target_stderr', target_stderr)} is out of range: "
-                                 f"valid is (0, 1)", "target_stderr")
+        check_fraction("target_stderr", target_stderr)
         samples = check_int("samples", samples, 2, 2**32 - 1, "[2, 2^32)")
         max_samples = check_int("max_samples", MAX_GROWTH * samples if max_samples is None
                                         else max_samples, samples, 2**32 - 1,

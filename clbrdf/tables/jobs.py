@@ -17,15 +17,15 @@ import numpy as np
 from ..api.albedo import GAUSS_NODES
 from ..models import get_spec, presets
 from ..models.choices import ESTIMATORS, MAGNITUDE_TOL, MC_ESTIMATORS, PRECISIONS, WIDTHS
-from ..models.spec import ParameterError, called, check_choice, check_int, given
+from ..models.spec import ParameterError, called, check_choice, check_fraction, check_int, given
 from ..runtime.launch import seed_words
-from ..runtime.quadrature import QUAD_MAX_EVALS
+from ..runtime.quadrature import check_max_evals
 from . import axes as ax_mod
-from .catalog import get_layout, ltc_axes, ltc_layouts
+from .catalog import get_layout, get_ltc_layout
 from .compute import albedo_table, table_axes
 from .layouts import check_only, make_layout, table_plan
 from .ltc import FORMS, check_magnitude_tol, fit_ltc
-from .ltc_layouts import ltc_layout
+from .ltc_layouts import layout_axes, ltc_layout
 
 PRODUCTS = ("table", "layout", "ltc")
 FORMAT = 1
@@ -50,9 +50,10 @@ class Job:
     def from_json(cls, d: dict) -> Job:
         """The job of ``to_json``'s dict, validated again (a job read from a file)."""
         d = dict(d)
-        if d.pop("format", FORMAT) != FORMAT:
-            raise ParameterError(f"job format {d.get('format')!r} is not known: this clbrdf "
-                                 f"reads format {FORMAT}", "job")
+        fmt = d.pop("format", FORMAT)
+        if fmt != FORMAT:
+            raise ParameterError(f"job format {fmt!r} is not known: this clbrdf reads format "
+                                 f"{FORMAT}", "job")
         product = d.pop("product", None)
         check_choice("product", product, PRODUCTS)
         fixed = d.pop("fixed", {})
@@ -80,7 +81,7 @@ def _plain(v):
     return v
 
 
-def _common(samples, seed, precision, width, lo: int = 2) -> dict:
+def _common(samples, seed, precision, width) -> dict:
     check_choice("precision", precision, PRECISIONS)
     if width is not None and (isinstance(width, bool) or width not in WIDTHS):
         raise ParameterError(f"{given('width', width)} is not valid: choose one of "
@@ -88,7 +89,7 @@ def _common(samples, seed, precision, width, lo: int = 2) -> dict:
     seed_words(seed)
     out = {"seed": int(seed), "precision": precision, "width": width}
     if samples is not None:
-        out["samples"] = check_int("samples", samples, lo, 2**32 - 1, f"[{lo}, 2^32)")
+        out["samples"] = check_int("samples", samples, 2, 2**32 - 1, "[2, 2^32)")
     return out
 
 
@@ -102,21 +103,15 @@ def _estimator(estimator, qmc, tol, max_evals, target_stderr, max_samples) -> di
             if v is not None:
                 raise ParameterError(f"{called(k)} is for the Monte Carlo estimators; the "
                                      f"quadrature's target is {called('tol')}", k)
-        if tol is not None and (isinstance(tol, bool) or not 0 < float(tol) < 1):
-            raise ParameterError(f"{given('tol', tol)} is out of range: valid is (0, 1)", "tol")
-        if max_evals is not None:
-            check_int("max_evals", max_evals, 1, QUAD_MAX_EVALS, f"[1, {QUAD_MAX_EVALS}]")
-        return {**out, "qmc": False, "tol": tol, "max_evals": max_evals}
+        return {**out, "qmc": False, "tol": None if tol is None else check_fraction("tol", tol),
+                "max_evals": None if max_evals is None else check_max_evals(max_evals)}
     for k, v in (("tol", tol), ("max_evals", max_evals)):
         if v is not None:
             raise ParameterError(f"{called(k)} is for {given('estimator', 'quadrature')}, not "
                                  f"{given('estimator', estimator)}", k)
     check_choice("estimator", estimator, MC_ESTIMATORS)
     if target_stderr is not None:
-        if isinstance(target_stderr, bool) or not 0 < float(target_stderr) < 1:
-            raise ParameterError(f"{given('target_stderr', target_stderr)} is out of range: "
-                                 f"valid is (0, 1)", "target_stderr")
-        out["target_stderr"] = float(target_stderr)
+        out["target_stderr"] = check_fraction("target_stderr", target_stderr)
         out["max_samples"] = max_samples
     elif max_samples is not None:
         raise ParameterError(f"{called('max_samples')} is the cap of "
@@ -205,19 +200,12 @@ def ltc_job(model: str | None = None, axes=None, *, layout: str | None = None,
         raise ParameterError(f"{called('preset')} is a published RGB fit; an LTC fits one "
                              f"channel: give its parameters", "preset")
     if layout is not None:
-        lays = ltc_layouts()
-        if layout not in lays:
-            raise ParameterError(f"{given('layout', layout)} is not an LTC layout: choose one "
-                                 f"of {', '.join(sorted(lays))}", "layout")
+        lay = get_ltc_layout(layout)
         if axes is not None or form is not None:
             raise ParameterError(f"{called('layout')} names the axes and the LTC's form itself: "
                                  f"give no {called('axes')} or {called('form')} with it", "layout")
-        lay = lays[layout]
         model = model or lay["model"]
-        axes = {}
-        for text in ltc_axes(lay):
-            a = ax_mod.parse_axis(text)
-            axes[a["name"]] = a
+        axes = layout_axes(layout)
         form = lay.get("form", "general")
     elif model is None or not axes:
         raise ParameterError(f"an LTC fit needs {called('model')} and its {called('axes')} "

@@ -5,31 +5,28 @@ of the texture arrays, or the tables' own .npz, .exr and .csv, as the layout's "
 (``catalog.ltc_formats``), and ``load_tables`` reads the last three back."""
 from __future__ import annotations
 
-from ..models.spec import ParameterError
 from .axes import parse_axis
-from .catalog import ltc_axes, ltc_layouts
+from .catalog import get_ltc_layout, ltc_axes
 from .ltc import fit_ltc
 from .textures import textures
 
-SUFFIXES = (".js", ".h", ".npz", ".exr")       # what an LTC layout is written as by default
+SUFFIXES = (".js", ".h", ".npz", ".exr")       # every suffix an LTC layout may be written as
 
 
-def _layout(name: str) -> dict:
-    lays = ltc_layouts()
-    if name not in lays:
-        raise ParameterError(f"layout={name!r} is not an LTC layout: choose one of "
-                             f"{', '.join(sorted(lays))}")
-    return lays[name]
+def layout_axes(name: str) -> dict:
+    """LTC layout ``name``'s fit axes {name: axis dict}, from its tables' axis texts."""
+    axes = {}
+    for text in ltc_axes(get_ltc_layout(name)):
+        ax = parse_axis(text)
+        axes[ax["name"]] = ax
+    return axes
 
 
 def ltc_layout(name: str, model: str | None = None, **kw) -> dict:
     """The layout's tables: the fit (a fit_ltc Table named "ltc" over its axes) and its
     textures {NAME: Table}; ``model`` replaces the layout's (any isotropic reflection model),
     ``kw`` go to fit_ltc (parameters, options, samples, device, ...)."""
-    lay = _layout(name)
-    axes = {}
-    for text in ltc_axes(lay):
-        ax = parse_axis(text)
-        axes[ax["name"]] = ax
-    fit = fit_ltc(model or lay["model"], axes, **{"form": lay.get("form", "general"), **kw})
+    lay = get_ltc_layout(name)
+    fit = fit_ltc(model or lay["model"], layout_axes(name),
+                  **{"form": lay.get("form", "general"), **kw})
     return {"ltc": fit, **textures(name, fit)}
