@@ -518,8 +518,9 @@ __kernel void quadrature_panels(const global real_t *P, Tables TABLES, const glo
 
 /* ---- fitting linearly transformed cosines (kernels/ltc.h) to a lobe: clbrdf/tables/ltc.py ----
  * The lobe of a cell is its (wo, parameters) point's f(wo, wi) cos(theta_i) over wi, first
- * channel; the numbers of sample k of cell c are RNG(k, c, 0, seed) for every launch and every
- * candidate matrix, so that a fit sees one deterministic loss (common random numbers). */
+ * channel; the numbers of sample k of cell c are RNG(k, cell0 + c, 0, seed) for every launch and
+ * every candidate matrix, so that a fit sees one deterministic loss (common random numbers);
+ * cell0, the first cell's index in the whole grid, keys a part of the cells as the whole. */
 
 /* Work-item g: cell g. Sums over `samples` BRDF samples of the weight w = f cos / pdf, with
  * l = (X.wi, Y.wi, Z.wi) in the cell's frame (FRAME rows X, Y, Z, structure-of-arrays over
@@ -528,8 +529,9 @@ __kernel void quadrature_panels(const global real_t *P, Tables TABLES, const glo
  * (the Schlick split's B term of Heitz's fit), sum w l (3), sum w l l^T (xx, yy, zz, xy, xz,
  * yz), sum (w (1 - wo.h)^5)^2. */
 __kernel void ltc_moments(const global real_t *P, Tables TABLES, const global real_t *WO,
-                          const ulong ncells, const global real_t *FRAME, const uint samples,
-                          const uint seed_lo, const uint seed_hi, global real_t *out)
+                          const ulong ncells, const uint cell0, const global real_t *FRAME,
+                          const uint samples, const uint seed_lo, const uint seed_hi,
+                          global real_t *out)
 {
     ulong g = get_global_id(0);
     if (g >= ncells) return;
@@ -543,7 +545,7 @@ __kernel void ltc_moments(const global real_t *P, Tables TABLES, const global re
         acc[j] = 0;
     for (uint k = 0; k < samples; k += W) {
         uintN idx = (uintN)k + LANE_IDS;
-        rand4 u = RNG(idx, (uint)g, 0, seed_lo, seed_hi);
+        rand4 u = RNG(idx, cell0 + (uint)g, 0, seed_lo, seed_hi);
         BSample s = BRDF(sample)(&p, wo, u);
         maskN ok = TO_MASK(idx < (uintN)samples) & (s.pdf > 0) & (s.wi.z > 0);
         realN w = sel((realN)0, s.weight.c[0], ok);
@@ -574,7 +576,8 @@ __kernel void ltc_moments(const global real_t *P, Tables TABLES, const global re
  *     L1 = int |t - D| dw        e1 = the same with |t - D|  (the relative L1 error, in [0, 2])
  * out[4 g + 0..3] = sum e3, sum e3^2, sum e1, sum e1^2 over the samples. */
 __kernel void ltc_loss(const global real_t *P, Tables TABLES, const global real_t *WO,
-                       const ulong ncells, const global uint *CELL, const global real_t *MAT,
+                       const ulong ncells, const uint cell0, const global uint *CELL,
+                       const global real_t *MAT,
                        const ulong ncand, const uint samples, const uint seed_lo,
                        const uint seed_hi, global real_t *out)
 {
@@ -592,7 +595,7 @@ __kernel void ltc_loss(const global real_t *P, Tables TABLES, const global real_
     realN s3 = 0, q3 = 0, s1 = 0, q1 = 0;
     for (uint k = 0; k < samples; k += W) {
         uintN idx = (uintN)k + LANE_IDS;
-        rand4 u = RNG(idx, cell, 0, seed_lo, seed_hi);
+        rand4 u = RNG(idx, cell0 + cell, 0, seed_lo, seed_hi);
         maskN live = TO_MASK(idx < (uintN)samples);
         /* the lobe's sample: f cos = weight pdf */
         BSample sb = BRDF(sample)(&p, wo, u);

@@ -425,8 +425,7 @@ def add_parsers(sub) -> None:
     p.add_argument("--out", "-o", required=True, metavar="FILE", action="append",
                    help="output file; may be repeated")
     p.add_argument("--cluster", metavar="ADDRESS", default=None,
-                   help=CLUSTER.replace("albedo and quadrature calls", "magnitudes' quadrature "
-                                        "(the fit itself runs here)"))
+                   help=CLUSTER.replace("albedo and quadrature calls", "fit's cells"))
     p.set_defaults(func=cmd_ltc)
 
     p = sub.add_parser("layouts", help="the renderers' table layouts of 'clbrdf table --layout'")

@@ -26,10 +26,12 @@ def _buffers(bound, wo):
 class LTCRunner:
     """The cells of one fit (a Bound whose parameters have shape (ncells,), and wo (ncells, 3))
     on its device, with the generator ``rng`` (``sobol`` for the fit's common random numbers,
-    ``philox`` for independent estimates with error bars)."""
+    ``philox`` for independent estimates with error bars); ``cell0``: the first cell's index in
+    the whole grid, which keys the cells' random numbers (a part of a grid draws the numbers of
+    the same cells of the whole)."""
 
-    def __init__(self, bound, wo, rng: str = "sobol"):
-        self.bound, self.n = bound, len(wo)
+    def __init__(self, bound, wo, rng: str = "sobol", cell0: int = 0):
+        self.bound, self.n, self.cell0 = bound, len(wo), np.uint32(cell0)
         self.prog = bound.program(part="ltc", rng=rng)
         self.P, self.WO = _buffers(bound, wo)
 
@@ -48,7 +50,7 @@ class LTCRunner:
         lo, hi = seed_words(seed)
         kernel(self.prog.program, "ltc_moments")(
             q, *ndrange(self.n, b.device, heavy=True), self.P, self.prog.tables, self.WO, np.uint64(self.n),
-            fb, np.uint32(samples), lo, hi, out)
+            self.cell0, fb, np.uint32(samples), lo, hi, out)
         h = np.empty(MOMENTS * self.n, b.dtype)
         cl.enqueue_copy(q, h, out)
         q.finish()
@@ -79,7 +81,7 @@ class LTCRunner:
             out = cl.Buffer(ctx, mf.WRITE_ONLY, 4 * k * np.dtype(b.dtype).itemsize)
             kernel(self.prog.program, "ltc_loss")(
                 q, *ndrange(k, b.device, heavy=True), self.P, self.prog.tables, self.WO, np.uint64(self.n),
-                cb, mb, np.uint64(k), np.uint32(samples), lo, hi, out)
+                self.cell0, cb, mb, np.uint64(k), np.uint32(samples), lo, hi, out)
             h = np.empty(4 * k, b.dtype)
             cl.enqueue_copy(q, h, out)
             res[sl] = h.reshape(k, 4)

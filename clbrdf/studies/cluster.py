@@ -46,6 +46,7 @@ from ..runtime.bound import Bound
 from ..runtime.device import get_device
 from ..runtime.launch import working_width
 from ..runtime.quadrature import QUAD_MAX_EVALS, run_quadrature, using_quadrature
+from ..tables.ltc import fit_ltc_part, using_ltc_parts
 from .sweepjob import compute_chunk, device_fingerprint
 
 _STATE: dict = {}
@@ -138,7 +139,7 @@ def run_on_cluster(client: Client, root, path, job: dict, todo: list, stop, bar,
 
 
 # ---------------------------------------------------------------------------------------------
-# tables, layouts and LTC magnitudes: their albedo and quadrature calls on the cluster
+# tables and layouts (their albedo and quadrature calls) and LTC fits (their cells) on the cluster
 
 def _albedo_task(config, params, precision, width, selector, wo, kw, point0):
     """One part of an albedo call on the worker's device: run_albedo over its points, keyed by
@@ -156,13 +157,19 @@ def _quadrature_task(config, params, precision, width, selector, wo, kw):
     return E, err, evals, secs, dev.info.name
 
 
+def _ltc_task(spec, i0, i1, selector):
+    dev = _device(selector)
+    return fit_ltc_part(spec, i0, i1, dev)
+
+
 class ClusterDriver:
-    """The albedo and quadrature calls of a table, a layout or an LTC fit's magnitudes, each cut
+    """The albedo and quadrature calls of a table or a layout, and an LTC fit's cells, each cut
     into parts of its points and computed on a dask.distributed cluster, ``parts_per_worker``
-    parts per worker (``on_cluster``). Random numbers are keyed by a point's flat index and the
-    quadrature refines each point by itself, so the result is bit-identical to the local run
-    when the workers' device is the local one's kind (checked: a worker on another device is an
-    error) and the width is the same."""
+    parts per worker (``on_cluster``). Random numbers are keyed by a point's (a cell's) flat
+    index, the quadrature refines each point by itself and Nelder-Mead steps each cell by
+    itself, so the result is bit-identical to the local run when the workers' device is the
+    local one's kind (checked: a worker on another device is an error) and the width is the
+    same."""
 
     def __init__(self, client, device=None, parts_per_worker: int = 4):
         if device is not None and not isinstance(device, (str, int)):
@@ -187,13 +194,17 @@ class ClusterDriver:
             futs.append(self.client.submit(fn, *args, pure=False))
         self.tasks += len(futs)
         out = self.client.gather(futs)
+        self._same_device(m, [r[-1] for r in out])
+        return out
+
+    @staticmethod
+    def _same_device(m, names):
         local = m.device.info.name
-        for r in out:
-            if r[-1] != local:
-                raise ParameterError(f"a cluster worker computed on {r[-1]!r}, this process on "
+        for name in names:
+            if name != local:
+                raise ParameterError(f"a cluster worker computed on {name!r}, this process on "
                                      f"{local!r}: the results would differ from a local run; "
                                      f"give the workers' device (--device) here as well")
-        return out
 
     def run_albedo(self, m, shape, wo, *, estimator, samples, seed, qmc, progress,
                    point0: int = 0):
@@ -214,12 +225,22 @@ class ClusterDriver:
                 np.concatenate([r[2] for r in out]), sum(r[3] for r in out))
 
 
+    def run_ltc(self, grid, spec):
+        """fit_ltc's cells in parts (clbrdf.tables.ltc.fit_ltc_part on the workers)."""
+        futs = [self.client.submit(_ltc_task, spec, i0, i1, self.device, pure=False)
+                for i0, i1 in self._parts(grid.n)]
+        self.tasks += len(futs)
+        out = self.client.gather(futs)
+        self._same_device(grid.model, [r["device"] for r in out])
+        return out
+
+
 @contextlib.contextmanager
 def on_cluster(client, device=None):
     """Inside the block every albedo and quadrature call (clbrdf.albedo_table, make_layout,
-    fit_ltc's magnitudes, ...) runs on the cluster (``ClusterDriver``)."""
+    ...) and every LTC fit's cells run on the cluster (``ClusterDriver``)."""
     d = ClusterDriver(client, device)
-    with using(d.run_albedo), using_quadrature(d.run_quadrature):
+    with using(d.run_albedo), using_quadrature(d.run_quadrature), using_ltc_parts(d.run_ltc):
         yield d
 
 

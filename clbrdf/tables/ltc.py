@@ -38,7 +38,7 @@ import numpy as np
 from ..api.model import Model
 from ..models import get_spec
 from ..models.choices import MAGNITUDE_TOL
-from ..models.spec import ParameterError, check_int, given
+from ..models.spec import ParameterError, Setting, check_int, given
 from ..runtime.launch import derive_seed, environment
 from ..api.albedo import QUAD_TOL
 from ..runtime.ltc import LTCRunner
@@ -289,19 +289,18 @@ def magnitudes(m, wo, config: dict, tol: float = MAGNITUDE_TOL):
     return E[:, 0], E_err[:, 0], B[:, 0], B_err[:, 0], how
 
 
-class _Cells:
-    """The cells of a fit: the validated axes, the model over the flattened grid, wo per cell,
-    and the lobe's moments (E, B, the frame and the moment-matched start) from ``N`` Philox
-    samples per cell."""
+class _Grid:
+    """The validated cells of a fit, before any device work: the axes, the flattened grid (mu,
+    phi and the parameters per cell) and the model over every cell."""
 
-    def __init__(self, name, axes, fixed, precision, device, width, N, seed,
-                 magnitude_tol=MAGNITUDE_TOL):
+    def __init__(self, name, axes, fixed, precision, device, width, form="general"):
         spec = get_spec(name)
         if spec.transmits:
             raise ParameterError(f"fit_ltc: {name} transmits; an LTC approximates a reflection "
                                  f"lobe over the upper hemisphere: choose a reflection model")
         if fixed.get("channels", 1) != 1:
             raise ParameterError("fit_ltc fits one channel: leave channels at 1")
+        self.name, self.fixed = name, fixed
         self.axl = table_axes(spec, axes, fixed, precision)
         names = self.names = [a["name"] for a in self.axl]
         evals = {a["name"]: ax_mod.evaluated(a) for a in self.axl}
@@ -309,16 +308,43 @@ class _Cells:
         grids = dict(zip(names, np.meshgrid(*[evals[k] for k in names], indexing="ij")))
         self.shape = grids[names[0]].shape
         view = next(k for k in names if k in ax_mod.VIEW)
-        mu = self.mu = grids[view].reshape(-1)
-        phi = grids["phi"].reshape(-1) if "phi" in grids else np.zeros(mu.size)
+        self.mu = grids[view].reshape(-1)
+        self.n = self.mu.size
+        self.phi = grids["phi"].reshape(-1) if "phi" in grids else np.zeros(self.n)
         self.params = {target[k]: grids[k].reshape(-1) for k in names if k not in (view, "phi")}
         m = self.model = Model(name, precision=precision, device=device, width=width, **fixed,
                                **self.params)
-        iso = self.isotropic = not (m.anisotropic or "phi" in names)
+        self.isotropic = not (m.anisotropic or "phi" in names)
+        if form == "zeltner" and not self.isotropic:
+            raise ParameterError('form="zeltner" is the isotropic two-parameter LTC: fit an '
+                                 'isotropic model without a phi axis, or use form="general"')
+
+    def check_not_empty(self, empty):
+        if np.all(empty):
+            at = ", ".join(f"{k}={v[0]:g}" for k, v in self.params.items())
+            raise ParameterError(f"fit_ltc: the lobe is empty (E = 0) in every cell (mu="
+                                 f"{self.mu[0]:g}{', ' + at if at else ''}, ...)")
+
+
+class _Cells:
+    """Cells [i0, i1) of a fit's grid (``_Grid``): the model over them, wo per cell, and the
+    lobe's moments (E, B, the frame and the moment-matched start) from ``N`` Philox samples per
+    cell. The random numbers are keyed by a cell's index in the whole grid, so that a part of
+    the cells gives what the whole gives in those cells."""
+
+    def __init__(self, grid, i0, i1, N, seed, magnitude_tol=MAGNITUDE_TOL):
+        self.grid, self.i0 = grid, i0
+        mu, phi = grid.mu[i0:i1], grid.phi[i0:i1]
+        self.params = {k: v[i0:i1] for k, v in grid.params.items()}
+        g = grid.model
+        m = self.model = g if (i0, i1) == (0, grid.n) else Model(
+            grid.name, precision=g.precision, device=g.device, width=g.width, **grid.fixed,
+            **self.params)
+        iso = self.isotropic = grid.isotropic
         n = self.n = mu.size
         st = np.sqrt((1 - mu) * (1 + mu))
         self.wo = np.stack([st * np.cos(phi), st * np.sin(phi), mu], axis=1)
-        self.indep = LTCRunner(m, self.wo, "philox")
+        self.indep = LTCRunner(m, self.wo, "philox", cell0=i0)
         self.N, self.seed = N, seed
         first = self.indep.moments(min(N, 1 << 12), derive_seed(seed, 0))
         self.azimuth = np.stack([np.cos(phi), np.sin(phi), np.zeros(n)], axis=1)
@@ -327,16 +353,14 @@ class _Cells:
         # the magnitudes E and B by the deterministic quadrature (``magnitudes``); the samples'
         # moments give the frame and the start
         self.E, self.E_se, self.B, self.B_se, self.how = magnitudes(
-            m, self.wo, {**fixed, **self.params}, magnitude_tol)
+            m, self.wo, {**grid.fixed, **self.params}, magnitude_tol)
         # an empty cell: no sample of the lobe contributed (Charlie at alpha 1e-3 and mu >= 0.5,
         # where E < 1e-150); it is fitted as the cosine's (finite throughout) and then stored as
         # M^-1 = I, its E and B and errors 0 (``table``)
         empty = self.empty = mom[:, 0] <= 0
         E = np.where(empty, 0.0, self.E)
-        if np.all(empty):
-            at = ", ".join(f"{k}={v[0]:g}" for k, v in self.params.items())
-            raise ParameterError(f"fit_ltc: the lobe is empty (E = 0) in every cell (mu={mu[0]:g}"
-                                 f"{', ' + at if at else ''}, ...)")
+        if n == grid.n:
+            grid.check_not_empty(empty)         # before the fit (a part: fit_ltc checks after)
         self.E_fit = np.where(empty, 1.0, E)
         mom = mom.copy()        # the cosine's: mean z, E[x^2] = E[y^2] = 1/4, E[z^2] = 1/2
         mom[empty, 0] = 1
@@ -394,9 +418,6 @@ class _Cells:
         15 in one launch: a = 1 / (the moment-matched scale's geometric mean) x 1/4 .. 4, and
         b = 0, or the shift -a tan(theta) that moves the cosine's axis to the lobe's mean
         direction (at theta from the normal), or half of it."""
-        if not self.isotropic:
-            raise ParameterError('form="zeltner" is the isotropic two-parameter LTC: fit an '
-                                 'isotropic model without a phi axis, or use form="general"')
         n = self.n
         frames = _frames(np.tile([0.0, 0.0, 1.0], (n, 1)), isotropic=True, ref=self.azimuth)
         z = np.einsum("nji,nj->ni", frames, self.frames[:, :, 2])    # mean direction, locally
@@ -419,70 +440,26 @@ class _Cells:
         L1_se = np.sqrt(np.maximum(rep[:, 3] / N - L1 * L1, 0) / (N - 1))
         return tuple(np.where(self.empty, 0.0, e) for e in (L3, L3_se, L1, L1_se))
 
-    def table(self, minv, errors, meta):
-        n = self.n
+    def result(self, minv, errors) -> dict:
+        """The cells' arrays of the table: M^-1 (n, 3, 3) (the identity in an empty cell), the
+        magnitudes and the errors, each with its standard error (0 in an empty cell)."""
         minv = np.where(self.empty[:, None, None], np.eye(3), minv)
-        # any positive scale of M^-1 is the same LTC: isotropic, the engines' M^-1[1][1] (= 1 / b
-        # > 0); anisotropic, |det M^-1|^(1/3), since there M^-1[1][1] passes through 0 and
-        # changes sign (and a negative scale sends the lobe below the horizon), after the
-        # rotation that makes M^-1 unique (``_canonical``)
-        if self.isotropic:
-            minv_n = minv / minv[:, 1:2, 1:2]
-        else:
-            minv_n = _canonical(minv)
-            minv_n /= np.cbrt(np.abs(np.linalg.det(minv_n)))[:, None, None]
-        L3, L3_se, L1, L1_se = errors
-        E, B, E_se, B_se = (np.where(self.empty, 0.0, v)
-                            for v in (self.E, self.B, self.E_se, self.B_se))
-        vals = np.concatenate([minv_n.reshape(n, 9), np.stack([E, B, L3, L1], 1)], 1)
-        errs = np.concatenate([np.zeros((n, 9)), np.stack([E_se, B_se, L3_se, L1_se], 1)], 1)
-        m = self.model
-        computed = {"quantity": "ltc", "model": m.name,
-                    **{k: v for k, v in m.describe().items() if k != "model" and k not in self.params},
-                    "axes": self.names, "report_samples": self.N, "seed": self.seed, **self.how,
-                    "precision": m.precision, **meta,
-                    "normalised_by": "M^-1[1][1]" if self.isotropic else "|det M^-1|^(1/3)",
-                    "empty_cells": int(self.empty.sum()), "device": m.device.info.name,
-                    "width": m.width, "clbrdf": __version__, "environment": environment()}
-        q = len(QUANTITIES)
-        return Table(name="ltc", axes=self.axl, quantity=list(QUANTITIES),
-                     raw=vals.reshape(self.shape + (q,)).astype(np.float32),
-                     stderr=errs.reshape(self.shape + (q,)), encoding="float32",
-                     meta={"computed": computed})
+        out = {"minv": minv, "empty": self.empty}
+        for k, v in zip(("E", "E_se", "B", "B_se", "L3", "L3_se", "L1", "L1_se"),
+                        (self.E, self.E_se, self.B, self.B_se) + tuple(errors)):
+            out[k] = np.where(self.empty, 0.0, v)
+        return out
 
 
-def fit_ltc(name: str, axes: dict, *, samples: int = 1024, report_samples: int = 1 << 16,
-            seed: int = 0, precision: str = "single", device=None, width: int | None = None,
-            max_iter: int = 600, restarts: int = 1, form: str = "general",
-            magnitude_tol: float = MAGNITUDE_TOL, command: str | None = None, **fixed):
-    """A table of LTC fits over the grid of ``axes`` (as ``clbrdf.albedo_table`` takes them: a
-    view axis ``mu``, ``theta`` or ``sqrt1m_mu``, ``phi`` (wo's azimuth), ``r`` or ``alpha``
-    and any numeric parameter, alpha_x and alpha_y of an anisotropic model included), with
-    fixed parameters and options in ``fixed``. Returns a ``clbrdf.Table``
-    named "ltc" whose quantities are the normalised M^-1 entries ``minv00`` .. ``minv22``
-    (row-major, M^-1 / M^-1[1][1], or M^-1 / |det M^-1|^(1/3) for an anisotropic model or a
-    phi axis), the magnitude ``E``, the Schlick split's ``B`` term (with
-    F0: E(F0) = F0 (E - B) + B), the fit's ``L3`` error and the relative ``L1`` error, each with
-    its ``_stderr`` (module docstring). ``samples``: quasi-random samples per loss evaluation
-    (a multiple of 16); ``report_samples``: Philox samples of the lobe's moments and the reported
-    errors (E and B are the quadrature's, to ``magnitude_tol``: ``magnitudes``);
-    ``max_iter``: Nelder-Mead iterations per cell and run, at most; ``restarts``: further runs
-    from the best point; ``form``: "general" (the 4 or 6 free entries) or "zeltner" (the
-    two-parameter LTC of Zeltner et al. 2022, module docstring)."""
-    if form not in FORMS:
-        raise ParameterError(f"form={form!r} is not valid: choose one of {', '.join(FORMS)}")
-    samples = check_int("samples", samples, 16, 1 << 24, "[16, 2^24]")
-    if samples % 16:
-        raise ParameterError(f"samples={samples} is not valid: give a multiple of 16")
-    report_samples = check_int("report_samples", report_samples, 16, 1 << 28, "[16, 2^28]")
-    max_iter = check_int("max_iter", max_iter, 1, 100000)
-    restarts = check_int("restarts", restarts, 0, 100)
-    magnitude_tol = check_magnitude_tol(magnitude_tol)
+def _fit_part(grid, spec: dict, i0: int, i1: int) -> dict:
+    """Cells [i0, i1) of the fit ``spec`` (fit_ltc's checked arguments) over ``grid``: their
+    arrays (``_Cells.result``), iterations per cell and the counts and seconds of the fit."""
+    samples, seed, max_iter, restarts, form = (spec[k] for k in (
+        "samples", "seed", "max_iter", "restarts", "form"))
     t0 = time.perf_counter()
-    c = _Cells(name, axes, fixed, precision, device, width, report_samples, seed,
-               magnitude_tol)
+    c = _Cells(grid, i0, i1, spec["report_samples"], seed, spec["magnitude_tol"])
     t1 = time.perf_counter()
-    runner = LTCRunner(c.model, c.wo, "sobol")
+    runner = LTCRunner(c.model, c.wo, "sobol", cell0=i0)
 
     def run(loss, x0, steps):
         x, fx, its = nelder_mead(loss, x0, steps, max_iter=max_iter)
@@ -522,23 +499,119 @@ def fit_ltc(name: str, axes: dict, *, samples: int = 1024, report_samples: int =
         evaluations += loss.evaluations
         _, minv = _matrices(c.frames, x)
     t2 = time.perf_counter()
-    errors = c.errors(minv)
+    out = c.result(minv, c.errors(minv))
     t3 = time.perf_counter()
+    return {**out, "its": np.broadcast_to(its, (c.n,)), "evaluations": int(evaluations),
+            "how": c.how, "seconds_moments": t1 - t0, "seconds_fit": t2 - t1,
+            "seconds_report": t3 - t2, "device": c.model.device.info.name}
+
+
+def fit_ltc_part(spec: dict, i0: int, i1: int, device=None) -> dict:
+    """Cells [i0, i1) of the fit ``spec`` on ``device`` (a cluster worker's part of fit_ltc:
+    clbrdf/studies/cluster.py); the model at ``spec["width"]``, the width of the whole fit."""
+    grid = _Grid(spec["name"], spec["axes"], spec["fixed"], spec["precision"], device,
+                 spec["width"], spec["form"])
+    return _fit_part(grid, spec, i0, i1)
+
+
+def _local_parts(grid, spec):
+    return [_fit_part(grid, spec, 0, grid.n)]
+
+
+# where fit_ltc's cells are fitted: ``ltc_parts_runner()(grid, spec)`` returns the parts' results
+# in order of their cells; here, unless a ``with using_ltc_parts(run):`` block installed another
+# (a cluster's)
+_PARTS = Setting("clbrdf_ltc_parts_runner")
+using_ltc_parts = _PARTS.using
+
+
+def _table(grid, spec: dict, parts: list, meta: dict) -> Table:
+    """The fit's Table from its parts' arrays (normalised as the engines store M^-1)."""
+    cat = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]
+           if isinstance(parts[0][k], np.ndarray)}
+    n, minv = grid.n, cat["minv"]
+    # any positive scale of M^-1 is the same LTC: isotropic, the engines' M^-1[1][1] (= 1 / b
+    # > 0); anisotropic, |det M^-1|^(1/3), since there M^-1[1][1] passes through 0 and
+    # changes sign (and a negative scale sends the lobe below the horizon), after the
+    # rotation that makes M^-1 unique (``_canonical``)
+    if grid.isotropic:
+        minv_n = minv / minv[:, 1:2, 1:2]
+    else:
+        minv_n = _canonical(minv)
+        minv_n /= np.cbrt(np.abs(np.linalg.det(minv_n)))[:, None, None]
+    vals = np.concatenate([minv_n.reshape(n, 9),
+                           np.stack([cat[k] for k in ("E", "B", "L3", "L1")], 1)], 1)
+    errs = np.concatenate([np.zeros((n, 9)), np.stack([cat[k] for k in (
+        "E_se", "B_se", "L3_se", "L1_se")], 1)], 1)
+    m = grid.model
+    how = {**parts[0]["how"], "magnitude_seconds": round(sum(
+        p["how"]["magnitude_seconds"] for p in parts), 3)}
+    computed = {"quantity": "ltc", "model": m.name,
+                **{k: v for k, v in m.describe().items() if k != "model" and k not in grid.params},
+                "axes": grid.names, "report_samples": spec["report_samples"],
+                "seed": spec["seed"], **how, "precision": m.precision, **meta,
+                "normalised_by": "M^-1[1][1]" if grid.isotropic else "|det M^-1|^(1/3)",
+                "empty_cells": int(cat["empty"].sum()), "device": m.device.info.name,
+                "width": m.width, "clbrdf": __version__, "environment": environment()}
+    q = len(QUANTITIES)
+    return Table(name="ltc", axes=grid.axl, quantity=list(QUANTITIES),
+                 raw=vals.reshape(grid.shape + (q,)).astype(np.float32),
+                 stderr=errs.reshape(grid.shape + (q,)), encoding="float32",
+                 meta={"computed": computed})
+
+
+def fit_ltc(name: str, axes: dict, *, samples: int = 1024, report_samples: int = 1 << 16,
+            seed: int = 0, precision: str = "single", device=None, width: int | None = None,
+            max_iter: int = 600, restarts: int = 1, form: str = "general",
+            magnitude_tol: float = MAGNITUDE_TOL, command: str | None = None, **fixed):
+    """A table of LTC fits over the grid of ``axes`` (as ``clbrdf.albedo_table`` takes them: a
+    view axis ``mu``, ``theta`` or ``sqrt1m_mu``, ``phi`` (wo's azimuth), ``r`` or ``alpha``
+    and any numeric parameter, alpha_x and alpha_y of an anisotropic model included), with
+    fixed parameters and options in ``fixed``. Returns a ``clbrdf.Table``
+    named "ltc" whose quantities are the normalised M^-1 entries ``minv00`` .. ``minv22``
+    (row-major, M^-1 / M^-1[1][1], or M^-1 / |det M^-1|^(1/3) for an anisotropic model or a
+    phi axis), the magnitude ``E``, the Schlick split's ``B`` term (with
+    F0: E(F0) = F0 (E - B) + B), the fit's ``L3`` error and the relative ``L1`` error, each with
+    its ``_stderr`` (module docstring). ``samples``: quasi-random samples per loss evaluation
+    (a multiple of 16); ``report_samples``: Philox samples of the lobe's moments and the reported
+    errors (E and B are the quadrature's, to ``magnitude_tol``: ``magnitudes``);
+    ``max_iter``: Nelder-Mead iterations per cell and run, at most; ``restarts``: further runs
+    from the best point; ``form``: "general" (the 4 or 6 free entries) or "zeltner" (the
+    two-parameter LTC of Zeltner et al. 2022, module docstring). Inside ``on_cluster`` (or
+    ``--cluster``) parts of the cells are fitted on the workers, with the local result."""
+    if form not in FORMS:
+        raise ParameterError(f"form={form!r} is not valid: choose one of {', '.join(FORMS)}")
+    samples = check_int("samples", samples, 16, 1 << 24, "[16, 2^24]")
+    if samples % 16:
+        raise ParameterError(f"samples={samples} is not valid: give a multiple of 16")
+    report_samples = check_int("report_samples", report_samples, 16, 1 << 28, "[16, 2^28]")
+    max_iter = check_int("max_iter", max_iter, 1, 100000)
+    restarts = check_int("restarts", restarts, 0, 100)
+    magnitude_tol = check_magnitude_tol(magnitude_tol)
+    t0 = time.perf_counter()
+    grid = _Grid(name, axes, fixed, precision, device, width, form)
+    spec = dict(name=name, axes=axes, fixed=fixed, precision=precision, width=grid.model.width,
+                form=form, samples=samples, report_samples=report_samples, seed=seed,
+                max_iter=max_iter, restarts=restarts, magnitude_tol=magnitude_tol)
+    parts = (_PARTS.get() or _local_parts)(grid, spec)
+    grid.check_not_empty(np.concatenate([p["empty"] for p in parts]))
+    its = np.concatenate([p["its"] for p in parts])
+    secs = {k: round(sum(p[k] for p in parts), 3)
+            for k in ("seconds_moments", "seconds_fit", "seconds_report")}
     meta = {"fit": ("Nelder-Mead on (log a, b), M^-1 = [[a, 0, b], [0, a, 0], [0, 0, 1]] in the "
                     "normal's frame, X toward wo (Zeltner et al. 2022)" if form == "zeltner" else
                     "Nelder-Mead on (log a, log b, c, t), M = [X Y Z] Ry(t) [[a, 0, c], "
                     "[0, b, 0], [0, 0, 1]], from the best of the moment starts and the Zeltner "
-                    "form's fit" if c.isotropic else
+                    "form's fit" if grid.isotropic else
                     "Nelder-Mead on (log a, log b, c, t, d, psi), M = [X Y Z] Ry(t) Rz(psi) "
                     "[[a, 0, c], [0, b, d], [0, 0, 1]]") + " (clbrdf/tables/ltc.py)",
             "loss": "L3 = int |f cos / E - D|^3 dw, MIS of the lobe's and the LTC's samples",
-            "form": form, "samples": samples, "max_iter": max_iter, "restarts": restarts, "iterations_max": int(its.max()),
-            "iterations_mean": round(float(its.mean()), 2),
-            "loss_evaluations": int(evaluations),
-            "seconds": round(t3 - t0, 3), "seconds_moments": round(t1 - t0, 3),
-            "seconds_fit": round(t2 - t1, 3), "seconds_report": round(t3 - t2, 3),
+            "form": form, "samples": samples, "max_iter": max_iter, "restarts": restarts,
+            "iterations_max": int(its.max()), "iterations_mean": round(float(its.mean()), 2),
+            "loss_evaluations": sum(p["evaluations"] for p in parts), "parts": len(parts),
+            "seconds": round(time.perf_counter() - t0, 3), **secs,
             **({"command": command} if command else {})}
-    return c.table(minv, errors, meta)
+    return _table(grid, spec, parts, meta)
 
 
 def ltc_errors(name: str, axes: dict, minv, *, report_samples: int = 1 << 16, seed: int = 0,
@@ -547,10 +620,12 @@ def ltc_errors(name: str, axes: dict, minv, *, report_samples: int = 1 << 16, se
     """The errors of given LTCs (``minv`` (..., 3, 3) over the grid of ``axes``, e.g. a shipped
     table's) under fit_ltc's metrics, with the same samples fit_ltc reports with: a Table as
     fit_ltc's, with these matrices."""
-    c = _Cells(name, axes, fixed, precision, device, width, report_samples, seed,
-               check_magnitude_tol(magnitude_tol))
+    grid = _Grid(name, axes, fixed, precision, device, width)
+    c = _Cells(grid, 0, grid.n, report_samples, seed, check_magnitude_tol(magnitude_tol))
     minv = np.asarray(minv, float).reshape(c.n, 3, 3)
-    return c.table(minv, c.errors(minv), {"fit": "given matrices"})
+    spec = {"report_samples": report_samples, "seed": seed}
+    return _table(grid, spec, [{**c.result(minv, c.errors(minv)), "how": c.how}],
+                  {"fit": "given matrices"})
 
 
 def ltc_matrix(table, *index) -> np.ndarray:
@@ -560,4 +635,4 @@ def ltc_matrix(table, *index) -> np.ndarray:
     return v.reshape(v.shape[:-1] + (3, 3))
 
 
-__all__ = ["fit_ltc", "ltc_errors", "ltc_matrix", "nelder_mead"]
+__all__ = ["fit_ltc", "fit_ltc_part", "ltc_errors", "ltc_matrix", "nelder_mead", "using_ltc_parts"]

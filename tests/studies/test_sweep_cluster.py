@@ -100,10 +100,11 @@ def test_a_worker_killed_mid_sweep(client, tmp_path):
     assert not set(victims) & set(client.run(os.getpid).values())     # new worker processes
 
 
-def test_a_layout_and_ltc_magnitudes_on_the_cluster_are_the_local_results(client):
-    """Inside ``on_cluster`` the albedo calls of a layout (three.js' DFG table: Monte Carlo)
-    and the quadrature of a table and of an LTC fit's magnitudes run as parts on the workers;
-    each result equals the local run bit for bit, and the workers took parts."""
+def test_a_layout_and_an_ltc_fit_on_the_cluster_are_the_local_results(client):
+    """Inside ``on_cluster`` the albedo calls of a layout (three.js' DFG table: Monte Carlo),
+    the quadrature of a table and an LTC fit's cells (moments, magnitudes, Nelder-Mead and the
+    reported errors) run as parts on the workers; each result equals the local run bit for bit,
+    and the workers took parts."""
     from clbrdf.studies.cluster import on_cluster
     from clbrdf.tables.compute import albedo_table
     from clbrdf.tables.layouts import make_layout
@@ -124,5 +125,8 @@ def test_a_layout_and_ltc_magnitudes_on_the_cluster_are_the_local_results(client
         assert np.array_equal(a.raw, b.raw) and np.array_equal(a.stderr, b.stderr), a.name
     assert np.array_equal(local[1].raw, dist[1].raw)
     assert np.array_equal(local[1].stderr, dist[1].stderr)
-    for q in ("E", "B", "L1"):
-        assert np.array_equal(local[2][q], dist[2][q]), q
+    assert dist[2].computed["parts"] == 5 > local[2].computed["parts"] == 1   # 9 cells by 2
+    assert np.array_equal(local[2].raw, dist[2].raw)
+    assert np.array_equal(local[2].stderr, dist[2].stderr)
+    for k in ("iterations_max", "iterations_mean", "loss_evaluations"):
+        assert local[2].computed[k] == dist[2].computed[k], k

@@ -401,11 +401,12 @@ def test_zeltner_form(sheen_cells):
     se = np.hypot(z["L1_stderr"], g["L1_stderr"])
     assert np.all(z["L1"][live] >= g["L1"][live] - 3 * se[live]), (z["L1"], g["L1"])
     # the loss at the fit against a grid of candidates (the fit's own samples and seed)
-    c = L._Cells("charlie", axes, {}, "single", None, None, 1 << 15, 0)
+    cells = L._Grid("charlie", axes, {}, "single", None, None)
+    c = L._Cells(cells, 0, cells.n, 1 << 15, 0)
     frames, _, _ = c.zeltner()
     loss = L._Fit(L.LTCRunner(c.model, c.wo, "sobol"), frames, c.E_fit, c.scale, 1024,
                   L.derive_seed(0, 2), L._zeltner_matrices)
-    cell = int(np.ravel_multi_index((2, 1), c.shape))
+    cell = int(np.ravel_multi_index((2, 1), cells.shape))
     a, b = 1 / m[2, 1, 2, 2], m[2, 1, 0, 2] / m[2, 1, 2, 2]
     best = loss(np.array([cell]), np.array([[np.log(a), b]]))[0]
     la, bb = np.meshgrid(np.log(a) + np.linspace(-0.5, 0.5, 21), b + np.linspace(-0.5, 0.5, 21))
