@@ -5,6 +5,7 @@ collection and deselection (``-m``, ``-k``), the number of chi-square tests that
 counted, and the fixture ``chi2_alpha`` gives each the Sidak-corrected significance that keeps
 the probability of any false rejection in the run at ``CHI2_FAMILY_ALPHA`` = 0.01.
 """
+import functools
 import hashlib
 
 import numpy as np
@@ -15,7 +16,32 @@ import stats
 CHI2_FAMILY_ALPHA = 0.01
 
 
+def _log_builds(path):
+    """CLBRDF_BUILD_LOG=FILE: one JSON line per program this worker builds (the test, the
+    seconds, the source's hash and #define lines), to see which tests compile what."""
+    import json
+    import os
+    import time
+
+    from clbrdf.runtime import build
+    inner = build._build.__wrapped__
+
+    def logged(device, source):
+        t = time.perf_counter()
+        r = inner(device, source)
+        row = {"test": os.environ.get("PYTEST_CURRENT_TEST", ""), "s": time.perf_counter() - t,
+               "hash": hashlib.sha1(source.encode()).hexdigest()[:12],
+               "defines": [ln for ln in source.splitlines()[:40] if ln.startswith("#define")]}
+        with open(path, "a") as f:
+            f.write(json.dumps(row) + "\n")
+        return r
+    build._build = functools.lru_cache(maxsize=256)(logged)
+
+
 def pytest_configure(config):
+    import os
+    if os.environ.get("CLBRDF_BUILD_LOG"):
+        _log_builds(os.environ["CLBRDF_BUILD_LOG"])
     config.addinivalue_line(
         "markers", "chisquare(n=1): the test performs n chi-square tests; their significance is "
         "Sidak-corrected over all chi-square tests selected in the run")

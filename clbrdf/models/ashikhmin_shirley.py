@@ -85,14 +85,7 @@ SPEC = ModelSpec(
               # a published fit (RGB, every parameter from the preset)
               ("ashikhmin_shirley-preset", {"preset": "alum-bronze:E1"})),
         sharp={"nu": 1e4, "nv": 1e4},
-        ladder={"nu": 100.0, "nv": 100.0, "fresnel": "dielectric", "eta": 1.5, "kd": 0.2},
-        # the quadrature at grazing (scripts/measure_quadrature.py, docs/accuracy/quadrature.md):
-        # the lobe map's weight jumps to 0 where wi crosses the horizon, along a curve bounding
-        # a thin strip of the sampler's square
-        known={("quadrature", "defaults", "single", 1e-3): "grazing (1.2e-6 off, estimated 1e-6)",
-               ("quadrature", "defaults", "single", 0.02): "grazing (3.1e-6, estimated 8e-7)",
-               ("quadrature", "defaults", "double", 1e-3): "grazing (1.1e-6)",
-               ("quadrature", "defaults", "double", 0.02): "grazing (3.1e-6, estimated 1e-7)"}),
+        ladder={"nu": 100.0, "nv": 100.0, "fresnel": "dielectric", "eta": 1.5, "kd": 0.2}),
 )
 
 SPECS = (SPEC,)

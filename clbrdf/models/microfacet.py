@@ -20,7 +20,6 @@ SWEPT = (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 1.0)
 # single precision at f0 = 0: Schlick's (1 - c)^5 carries the float32 rounding of c = wi.h, off by
 # 5 eps / (1 - c) relative (6.5e-5 at 1 - c = 2.4e-3, F = 8e-14); the stable form
 # 1 - c = |wo - wi|^2 / (4 (1 + c)) needs wo and wi at each Fresnel call
-SCHLICK_F0_LO = "Schlick (1 - c)^5 from a rounded c at f0 = 0"
 
 PARAMS = (
     Param("alpha", "roughness (isotropic)", *ROUGH, 0.5),
@@ -145,8 +144,7 @@ GGX = spec("ggx", "Microfacet, GGX (Trowbridge-Reitz) distribution",
                      ("ggx-dielectric-diffuse", {"alpha": 0.5, "eta": 1.5, "kd": 0.3}),
                      ("ggx-separable-ndf", {"alpha": 0.2, "masking": "separable", "sampler": "ndf"})),
                sharp={"alpha": 0.01}, roughest={"alpha": 1e-3},
-               ladder={"alpha": 0.3, "fresnel": "dielectric", "eta": 1.5, "kd": 0.2},
-               known={("single", "f0=lo"): SCHLICK_F0_LO}))
+               ladder={"alpha": 0.3, "fresnel": "dielectric", "eta": 1.5, "kd": 0.2}))
 BECKMANN = spec("beckmann", "Microfacet, Beckmann distribution",
                 "Walter et al. 2007 eq 25 (D), eq 27 (Lambda); Heitz & d'Eon 2014 (VNDF)",
                 facts=Facts(
@@ -154,8 +152,7 @@ BECKMANN = spec("beckmann", "Microfacet, Beckmann distribution",
                     capi=(("beckmann", {"alpha": 0.25}),
                           ("beckmann-vcavity", {"alpha": 0.6, "masking": "vcavity", "f0": 0.5})),
                     sharp={"alpha": 0.01}, roughest={"alpha": 1e-3},
-                    ladder={"alpha": 0.3, "fresnel": "conductor", "eta": 0.2, "k": 3.0},
-                    known={("single", "f0=lo"): SCHLICK_F0_LO}))
+                    ladder={"alpha": 0.3, "fresnel": "conductor", "eta": 0.2, "k": 3.0}))
 
 SPECS = (GGX, BECKMANN)
 

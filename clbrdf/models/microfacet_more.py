@@ -13,7 +13,7 @@ SGD BRDF of Bagher, Soler & Holzschuch 2012 with its published MERL fits as pres
 from dataclasses import replace
 from math import pi
 
-from .microfacet import SCHLICK_F0_LO, SWEPT, spec
+from .microfacet import SWEPT, spec
 from .spec import Facts, ModelSpec, Param
 
 GTR_ALPHA = (1e-3, 0.999)     # a = 1 is the degenerate D = 1/pi; the Lambda table's a range
@@ -38,10 +38,7 @@ GTR = _with_alpha(spec(
                 capi=(("gtr", {"alpha": 0.3, "gamma": 1.5}),),
                 sharp={"alpha": 0.01}, roughest={"alpha": 1e-3},
                 ladder={"alpha": 0.3, "gamma": 1.8, "fresnel": "dielectric", "eta": 1.5},
-                lambda_g1_error=2e-4,
-                known={("single", "f0=lo"): SCHLICK_F0_LO,
-                       ("quadrature", "defaults", "single", 1e-3): "2^24 evaluations do not reach tol (estimate 1.6e-06; RuntimeWarning)",
-                       ("quadrature", "rough", "single", 1e-3): "2^24 evaluations do not reach tol (estimate 1.1e-06; RuntimeWarning)"})),
+                lambda_g1_error=2e-4)),
     *GTR_ALPHA, 0.5)
 
 SGD = _with_alpha(spec(
@@ -92,23 +89,7 @@ SGD_BAGHER = ModelSpec(
     facts=Facts(
         sweeps=((("alpha",), (1e-5,) + SWEPT),),
         capi=(("sgd_bagher", {}),),
-        sharp={"alpha": 0.002},
-        known={
-            # E = 12.89 at mu = 1e-3 by the float64 reference's quadrature (kernel 12.87 +- 0.03):
-            # with the default c = 1e-7, k = 30 Bagher's G1 is 0.999999 at grazing: f ~ 1 / cos_o
-            ("check", "defaults", "energy"): "E = 12.89 at mu = 1e-3: G1 = 0.999999 at grazing, f ~ 1 / cos_o",
-            # the open defect (docs/models.md): the fits' G1 = 1 - lam expm1(c (theta - theta0)^k),
-            # k up to 48, loses k times the float32 rounding of theta - theta0: alum-bronze 5e-6
-            # relative at cos theta = 0.02, 3 per cent at mu = 1e-6
-            ("single", "preset=alum-bronze"): "sgd_bagher fits' G1 in float32",
-            ("quadrature", "defaults", "single", 1e-3): "2^24 evaluations do not reach tol (estimate 8.4e-06; RuntimeWarning)",
-            ("quadrature", "defaults", "single", 0.02): "2^24 evaluations do not reach tol (estimate 3.3e-06; RuntimeWarning)",
-            ("quadrature", "defaults", "single", 0.05): "2^24 evaluations do not reach tol (estimate 1.2e-06; RuntimeWarning)",
-            ("quadrature", "defaults", "double", 1e-3): "2^24 evaluations do not reach tol (estimate 6e-06; RuntimeWarning)",
-            ("quadrature", "defaults", "double", 0.02): "2^24 evaluations do not reach tol (estimate 2e-06; RuntimeWarning)",
-            ("quadrature", "defaults", "double", 0.05): "2^24 evaluations do not reach tol (estimate 1.6e-06; RuntimeWarning)",
-            ("quadrature", "defaults", "double", 0.2): "2^24 evaluations do not reach tol (estimate 1.3e-07; RuntimeWarning)",
-        }))
+        sharp={"alpha": 0.002}))
 
 SPECS = (GTR, SGD, SGD_BAGHER)
 

@@ -75,16 +75,7 @@ SPEC = ModelSpec(
         sweeps=((("r",), (1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 0.1, 0.5, 1.0)),),
         capi=(("schlick", {}), ("schlick-aniso", {"p": 0.2, "psi": 0.5})),
         sharp={"r": 1e-3},
-        ladder={"material": "double", "spectral": "fresnel", "c": 0.6, "r": 0.2, "r2": 0.8},
-        known={("check", "defaults", "energy"): "E = 1.47 at mu = 1e-6 (eq 18): per direction "
-                                                "not conserving",
-               # A(phi) ~ sqrt(p) / sqrt(e^2 + p^2) near its peak (e: azimuth from it) spreads
-               # the mass log-uniformly over e in [1e-6, 1]: clbrdf check's panel quadrature of
-               # the pdf does not converge (it says so), so its expected counts are off; the
-               # sampler is right: brdf albedo 0.0018440 +- 9e-7 and 0.0041824 +- 4e-6 against
-               # the reference's 0.0018439 and 0.0041842 (mu = 0.05, 0.5; 2^20 samples)
-               **{("check", cid, c): "the check's pdf quadrature does not converge at p = lo"
-                  for cid in ("p=lo", "p=lo-double") for c in ("chi-square", "pdf integral")}}),
+        ladder={"material": "double", "spectral": "fresnel", "c": 0.6, "r": 0.2, "r2": 0.8}),
 )
 
 SPECS = (SPEC,)

@@ -152,13 +152,6 @@ class Facts:
     ladder: dict | None = None
     # max |G1 error| of a tabulated Smith Lambda over its whole range (docs/models/distributions.md)
     lambda_g1_error: float = 0.0
-    # what the model is known to fail, each with its cause (strict expected failures of the tests:
-    # an entry goes when the case passes; tests/known.py gathers them): ("check", CONFIGURATION,
-    # CHECK) a check of clbrdf check fails (CONFIGURATION: "defaults" or an id of
-    # studies.check.configurations, "-double" for double precision); ("single", CONFIGURATION)
-    # single against double precision; ("quadrature", "defaults" or "rough", PRECISION, MU) the
-    # quadrature beyond its bound
-    known: dict = field(default_factory=dict)
 
 
 @dataclass
