@@ -29,7 +29,7 @@ albedo, kd = Lambertian albedo, and no rd.
 """
 import numpy as np
 
-from .spec import Facts, ModelSpec, Option, Param, ParameterError
+from .spec import Facts, ModelSpec, Option, Param, ParameterError, Resolved
 
 PARAMS = (
     Param("nu", "Phong exponent along the tangent u (x)", 0.0, 1e7, 100.0),
@@ -64,7 +64,7 @@ def configure(opts: dict, given: set):
             + (("ks",) if ks else ()) + (("rd",) if rd else ()) + (("kd",) if kd else ()))
     defines = (("AS_FRESNEL", str(int(fresnel == "dielectric"))), ("AS_KS", str(int(ks))),
                ("AS_RD", str(int(rd))), ("AS_KD", str(int(kd))))
-    return defines, used, {"fresnel": fresnel}
+    return Resolved(defines, used, {"fresnel": fresnel})
 
 
 SPEC = ModelSpec(

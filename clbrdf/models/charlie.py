@@ -8,7 +8,7 @@ with G from Estevez and Kulla's fitted Lambda (``visibility=charlie``) or Neubel
 Pettineo's visibility 1 / (4 (cos_i + cos_o - cos_i cos_o)) in place of G / (4 cos_i cos_o)
 (``visibility=ashikhmin``, Filament's cloth). glTF's alpha is sheenRoughness^2.
 """
-from .spec import Facts, ModelSpec, Option, Param, ParameterError
+from .spec import Facts, ModelSpec, Option, Param, ParameterError, Resolved
 
 PARAMS = (
     Param("alpha", "roughness (glTF: sheenRoughness^2)", 1e-3, 1.0, 0.25),
@@ -22,7 +22,7 @@ def configure(opts: dict, given: set):
     if v not in VISIBILITY:
         raise ParameterError(f"option visibility={v!r} is not valid: choose one of "
                              f"{', '.join(VISIBILITY)}")
-    return (("CHARLIE_V", str(VISIBILITY.index(v))),), ("alpha", "ks"), {"visibility": v}
+    return Resolved((("CHARLIE_V", str(VISIBILITY.index(v))),), ("alpha", "ks"), {"visibility": v})
 
 
 SPECS = (ModelSpec(

@@ -12,7 +12,7 @@ interface). eta = 1 is no interface: all light passes straight through (a delta 
 import numpy as np
 
 from .microfacet import ROUGH, SWEPT
-from .spec import Facts, ModelSpec, Option, Param, ParameterError
+from .spec import Facts, ModelSpec, Option, Param, ParameterError, Resolved
 
 ETA = (0.01, 100.0)
 
@@ -59,7 +59,7 @@ def configure(dist: str):
                    ("MF_SAMPLER", f"SAMPLER_{o['sampler'].upper()}"),
                    ("DI_LOBES", lobes), ("DI_TRANSPORT", f"DI_{o['transport'].upper()}"),
                    ("DI_ETA1", "DI_ETA1_LIMIT" if o["eta_one"] == "limit" else "DI_ETA1_NONE"))
-        return defines, rough + ("eta",), o
+        return Resolved(defines, rough + ("eta",), o)
     return fn
 
 

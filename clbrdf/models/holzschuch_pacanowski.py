@@ -13,7 +13,7 @@ albedo is at most 1) or ``paper`` (E = pi (1 + 1/(a^2 lambda^2)) as printed).
 is sigma, ``p`` the kurtosis; isotropic; sampler ``ndf`` (eq 22-23).
 """
 from . import microfacet
-from .spec import Facts, ModelSpec, Option, Param
+from .spec import Facts, ModelSpec, Option, Param, Resolved
 
 WAVELENGTHS = {"red": 0.645, "green": 0.526, "blue": 0.444}
 
@@ -44,7 +44,8 @@ def configure(opts: dict, given: set):
     norm = opts.get("diffraction_norm", "conserving")
     band = opts.get("band", "green")
     defines = (("HP_ENERGY", str(int(norm == "paper"))), ("HP_LAMBDA1", repr(WAVELENGTHS[band])))
-    return defines, tuple(p.name for p in PARAMS), {"diffraction_norm": norm, "band": band}
+    return Resolved(defines, tuple(p.name for p in PARAMS),
+                    {"diffraction_norm": norm, "band": band})
 
 
 # clbrdf check at p = lo in double precision: E = 1.8e-11 (mu = 0.5) and 7e-10 (mu = 1) by

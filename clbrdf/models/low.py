@@ -26,7 +26,7 @@ albedo/pi, LowSmooth as A (1 + B |Ip + Op|^2)^-C F_cook(eta, sqrt(1 - |Ip - Op|^
 LowMicrofacetFit as A D G F_cook(eta, wi.h) / (pi cos_i cos_o) with D = (1 + B (1 - h.z))^-C and
 V-groove G, which are exactly these models with kd = albedo, a = A, b = B, c = C, eta = eta.
 """
-from .spec import Facts, ModelSpec, Option, Param
+from .spec import Facts, ModelSpec, Option, Param, Resolved
 
 PARAMS_ABC = (
     Param("a", "A of the ABC function S = A / (1 + B f^2)^C (eq 11): scale of the lobe",
@@ -53,13 +53,13 @@ def _configure_smooth(opts: dict, given: set):
     diffuse = "kd" in given
     used = ("a", "b", "c", "eta") + (("kd",) if diffuse else ()) + (TWO if lobes == "two" else ())
     defines = (("LOW_DIFFUSE", str(int(diffuse))), ("LOW_TWO_LOBES", str(int(lobes == "two"))))
-    return defines, used, {"lobes": lobes}
+    return Resolved(defines, used, {"lobes": lobes})
 
 
 def _configure_microfacet(opts: dict, given: set):
     diffuse = "kd" in given
     used = ("a", "b", "c", "eta") + (("kd",) if diffuse else ())
-    return (("LOW_DIFFUSE", str(int(diffuse))),), used, {}
+    return Resolved((("LOW_DIFFUSE", str(int(diffuse))),), used)
 
 
 # the stability map's b (from a near-constant lobe to a spike) and c (around 1)

@@ -12,7 +12,7 @@ Other distributions plug in with ``spec(name, ..., header="dist_<name>.h", shape
 the header provides <name>_D, <name>_Lambda, <name>_sample_ndf (and <name>_sample_vndf) on a
 ``Microfacet`` whose ``shape`` field holds the extra parameter.
 """
-from .spec import Facts, ModelSpec, Option, Param, ParameterError
+from .spec import Facts, ModelSpec, Option, Param, ParameterError, Resolved
 
 ROUGH = (1e-4, 10.0)
 # the roughnesses of the stability map (clbrdf.studies.stability), from near-mirror to matte
@@ -91,8 +91,8 @@ def configure(dist: str, shape: str | None = None, header: str | None = None,
         used = (rough + ((shape,) if shape else ()) + FRESNEL_PARAMS[fresnel]
                 + (("f90",) if f90 else ())
                 + (("ks",) if ks else ()) + (("kd",) if diffuse else ()))
-        return (defines, used, {"masking": masking, "fresnel": fresnel, "sampler": sampler},
-                (header,) if header else ())
+        return Resolved(defines, used, {"masking": masking, "fresnel": fresnel,
+                                        "sampler": sampler}, (header,) if header else ())
     return fn
 
 

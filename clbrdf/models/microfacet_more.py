@@ -14,7 +14,7 @@ from dataclasses import replace
 from math import pi
 
 from .microfacet import SWEPT, spec
-from .spec import Facts, ModelSpec, Param
+from .spec import Facts, ModelSpec, Param, Resolved
 
 GTR_ALPHA = (1e-3, 0.999)     # a = 1 is the degenerate D = 1/pi; the Lambda table's a range
 SGD_ALPHA = (1e-5, 1.0)       # the published fits reach 1.6e-5; the Lambda table's a range
@@ -76,7 +76,7 @@ BAGHER_PARAMS = (
 
 def _bagher_configure(opts: dict, given: set):
     used = tuple(p.name for p in BAGHER_PARAMS if p.name != "kap" or "kap" in given)
-    return ((("SGDB_KAP", str(int("kap" in given))),), used, {})
+    return Resolved((("SGDB_KAP", str(int("kap" in given))),), used)
 
 
 SGD_BAGHER = ModelSpec(

@@ -11,7 +11,7 @@ lobe (then EON at rho = 1 reflects exactly 1 at every angle), ``albedo=approx`` 
 quartic fit of it. ``sampler=cltc`` is the paper's clipped-LTC sampler mixed with the uniform
 hemisphere; ``cosine`` the cosine hemisphere.
 """
-from .spec import Facts, ModelSpec, Option, Param
+from .spec import Facts, ModelSpec, Option, Param, Resolved
 
 PARAMS = (
     Param("rho", "diffuse albedo", 0.0, 1.0, 0.8, spectral=True),
@@ -33,7 +33,7 @@ def configure(opts: dict, given: set):
     defines = (("ON_FORM", str(FORMS.index(o["form"]))),
                ("ON_ALBEDO", str(ALBEDOS.index(o["albedo"]))),
                ("ON_SAMPLER", str(SAMPLERS.index(o["sampler"]))))
-    return defines, ("rho", "r"), o
+    return Resolved(defines, ("rho", "r"), o)
 
 
 SPECS = (ModelSpec(

@@ -10,7 +10,7 @@ The sampler is ours (the paper has none): see kernels/schlick.h and docs/models/
 """
 from math import pi
 
-from .spec import Facts, ModelSpec, Option, Param, ParameterError
+from .spec import Facts, ModelSpec, Option, Param, ParameterError, Resolved
 
 R_MIN = 1e-7          # r -> 0 is a mirror (a Dirac), which a BRDF kernel cannot represent
 P_MIN = 1e-6          # p -> 0 makes A a Dirac in the azimuth
@@ -56,7 +56,8 @@ def configure(opts: dict, given: set):
     defines = (("SCH_DOUBLE", str(int(double))), ("SCH_FRESNEL", str(int(spectral == "fresnel"))),
                ("SCH_EQ", directional[2:]), ("SCH_ANISO1", str(int(aniso1))),
                ("SCH_ANISO2", str(int(aniso2))))
-    return defines, used, {"material": material, "spectral": spectral, "directional": directional}
+    return Resolved(defines, used, {"material": material, "spectral": spectral,
+                                    "directional": directional})
 
 
 SPEC = ModelSpec(

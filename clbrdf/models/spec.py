@@ -134,6 +134,16 @@ class Config:
 
 
 @dataclass(frozen=True)
+class Resolved:
+    """What a model's options and given parameters resolve to: the answer of its
+    ``configure_fn(options, names of the parameters given)``."""
+    defines: tuple[tuple[str, str], ...]      # the kernel's #defines, (name, value)
+    used: tuple[str, ...]                     # the parameters the kernel reads, in its order
+    options: dict = field(default_factory=dict)   # the options in effect (describe(), errors)
+    headers: tuple[str, ...] = ()             # kernel headers included before the model's
+
+
+@dataclass(frozen=True)
 class Facts:
     """What the studies and tests need to know of a model, stated on its description: a new
     model is its kernel header, its description, its reference and its doc page, with no edit in
@@ -163,7 +173,7 @@ class ModelSpec:
     prefix: str
     params: tuple[Param, ...]
     options: tuple[Option, ...] = ()
-    # (options, names of parameters given) -> (defines, parameter names used, options resolved)
+    # (options, names of the parameters given) -> Resolved; None: every parameter, no #define
     configure_fn: Callable | None = None
     aliases: dict[str, str] = field(default_factory=dict)
     notes: str = ""                  # how options follow from the parameters given, etc.
@@ -241,14 +251,14 @@ class ModelSpec:
         if channels not in (1, 3):
             raise ParameterError(f"channels={channels!r} is not valid: choose 1 or 3 (RGB)")
         opts, given = self.split(kwargs)
-        headers = ()
         if self.configure_fn is None:
-            defines, used, resolved = (), tuple(p.name for p in self.params), {}
+            r = Resolved((), tuple(p.name for p in self.params))
         else:
             r = self.configure_fn(opts, set(given))
-            defines, used, resolved = r[:3]
-            if len(r) > 3:
-                headers = tuple(r[3])
+            if not isinstance(r, Resolved):
+                raise TypeError(f"model {self.name}: configure_fn returned {type(r).__name__}, "
+                                f"not clbrdf.models.spec.Resolved")
+        defines, used, resolved, headers = r.defines, r.used, r.options, tuple(r.headers)
         unused = set(given) - set(used)
         if unused:
             name = sorted(unused)[0]

@@ -9,7 +9,7 @@ at grazing angles (docs/models.md).
 """
 import numpy as np
 
-from .spec import Facts, ModelSpec, Param
+from .spec import Facts, ModelSpec, Param, Resolved
 
 PARAMS = (
     Param("alpha_x", "slope deviation along the tangent x", 1e-3, 1.0, 0.2),
@@ -21,7 +21,8 @@ PARAMS = (
 
 def configure(opts: dict, given: set):
     kd = "kd" in given
-    return (("WARD_DIFFUSE", str(int(kd))),), ("alpha_x", "alpha_y", "ks") + (("kd",) if kd else ()), {}
+    return Resolved((("WARD_DIFFUSE", str(int(kd))),),
+                    ("alpha_x", "alpha_y", "ks") + (("kd",) if kd else ()))
 
 
 SPECS = (ModelSpec(

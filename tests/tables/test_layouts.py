@@ -797,17 +797,25 @@ def _coords(t, rng, n=50):
     return out
 
 
-def _c_program(tables, prefix, coords):
-    lines = ['#include <stdio.h>', '#include "tables.h"', "int main(void)", "{"]
-    for name, t in tables.items():
-        cn = f"{prefix}_{name}"
-        for c in range(len(t.quantity)):
-            for k in range(len(coords[name][0])):
-                args = ", ".join(f"{float(x[k])!r}f" for x in coords[name])
+def _c_program(layouts, coords):
+    """A C program that prints every table's lookups at ``coords[layout, name]`` (arrays of
+    float32 literals, one loop per channel), every layout's header included."""
+    lines = ["#include <stdio.h>"] + [f'#include "tables_{lay.replace("-", "_")}.h"'
+                                      for lay in layouts]
+    body = []
+    for layout, tables in layouts.items():
+        prefix = layout.replace("-", "_")
+        for name, t in tables.items():
+            cn, xs = f"{prefix}_{name}", coords[layout, name]
+            for d, x in enumerate(xs):
+                lines.append(f"static const float {cn}_c{d}[] = {{"
+                             + ", ".join(f"{float(v)!r}f" for v in x) + "};")
+            args = ", ".join(f"{cn}_c{d}[k]" for d in range(len(xs)))
+            for c in range(len(t.quantity)):
                 ch = f", {c}" if len(t.quantity) > 1 else ""
-                lines.append(f'    printf("%.9g\\n", (double){cn}_lookup({args}{ch}));')
-    lines += ["    return 0;", "}"]
-    return "\n".join(lines) + "\n"
+                body.append(f"    for (int k = 0; k < {len(xs[0])}; ++k)\n"
+                            f'        printf("%.9g\\n", (double){cn}_lookup({args}{ch}));')
+    return "\n".join(lines + ["int main(void)", "{"] + body + ["    return 0;", "}"]) + "\n"
 
 
 def _float32_bound(tables, want):
@@ -829,84 +837,103 @@ def _expected(tables, coords):
     return np.array(out)
 
 
-@pytest.mark.parametrize("layout", LAYOUTS_COMPILED)
 @pytest.mark.parametrize("compiler", [("gcc", "-std=c99", "-pedantic"),
                                       ("g++", "-std=c++17", "-x", "c++")])
-def test_header_compiles_and_matches_python_lookup(layout, compiler, small_layouts, tmp_path):
-    """The header with -Wall -Wextra -Werror; its lookups at random points equal
-    Table.lookup within float32 rounding (``_float32_bound``)."""
+def test_header_compiles_and_matches_python_lookup(compiler, small_layouts, tmp_path):
+    """Every layout's header in one program, with -Wall -Wextra -Werror; its lookups at random
+    points equal Table.lookup within float32 rounding (``_float32_bound``)."""
     exe = shutil.which(compiler[0])
     if exe is None:
         pytest.skip(f"{compiler[0]} not installed")
-    tables = small_layouts[layout]
-    prefix = layout.replace("-", "_")
-    save_tables(tables, tmp_path / "tables.h", prefix=prefix)
-    rng = np.random.default_rng(1)
-    coords = {n: _coords(t, rng) for n, t in tables.items()}
-    (tmp_path / "main.c").write_text(_c_program(tables, prefix, coords))
+    _headers(small_layouts, tmp_path)
+    coords = {}
+    for layout, tables in small_layouts.items():
+        rng = np.random.default_rng(1)
+        coords.update({(layout, n): _coords(t, rng) for n, t in tables.items()})
+    (tmp_path / "main.c").write_text(_c_program(small_layouts, coords))
     subprocess.run([exe, *compiler[1:], "-Wall", "-Wextra", "-Werror", "-I", str(tmp_path),
                     str(tmp_path / "main.c"), "-o", str(tmp_path / "main"), "-lm"], check=True)
     got = np.array(subprocess.run([str(tmp_path / "main")], capture_output=True, text=True,
                                   check=True).stdout.split(), dtype=np.float64)
-    want = _expected(tables, coords)
-    bound = _float32_bound(tables, want)
-    assert np.all(np.abs(got - want) <= bound), np.max(np.abs(got - want) / bound)
+    for layout, tables in small_layouts.items():
+        want = _expected(tables, {n: coords[layout, n] for n in tables})
+        bound = _float32_bound(tables, want)
+        mine, got = got[:want.size], got[want.size:]
+        assert np.all(np.abs(mine - want) <= bound), (layout, np.max(np.abs(mine - want) / bound))
+    assert got.size == 0
+
+
+def _headers(small_layouts, tmp_path):
+    """Each layout's header written (tables_PREFIX.h) and the lines that include them all: one
+    translation unit, as a renderer that ships several engines' tables would compile them."""
+    inc = ""
+    for layout, tables in small_layouts.items():
+        prefix = layout.replace("-", "_")
+        save_tables(tables, tmp_path / f"tables_{prefix}.h", prefix=prefix)
+        inc += f'#include "tables_{prefix}.h"\n'
+    return inc
 
 
 @pytest.mark.parametrize("arch", [pytest.param("sm_75", marks=pytest.mark.slow), "sm_90"])
 def test_header_compiles_for_cuda(arch, small_layouts, tmp_path):
+    """Every layout's header in one CUDA translation unit, each lookup called from a kernel."""
     nvcc = shutil.which("nvcc")
     if nvcc is None:
         pytest.skip("nvcc not installed")
+    src = _headers(small_layouts, tmp_path)
     for layout, tables in small_layouts.items():
         prefix = layout.replace("-", "_")
-        save_tables(tables, tmp_path / "tables.h", prefix=prefix)
         calls = " + ".join(
             f"{prefix}_{n}_lookup({', '.join(['x'] * len(t.axes))}"
             f"{', 0' if len(t.quantity) > 1 else ''})" for n, t in tables.items())
-        (tmp_path / "k.cu").write_text(
-            '#include "tables.h"\n__global__ void k(float *out, const float *in, int n)\n'
-            '{ int i = blockIdx.x * blockDim.x + threadIdx.x; if (i < n) { float x = in[i]; '
-            f'out[i] = {calls}; }} }}\n')
-        subprocess.run([nvcc, "--ptx", f"-arch={arch}", "-Werror", "all-warnings", "-I",
-                        str(tmp_path), str(tmp_path / "k.cu"), "-o", str(tmp_path / "k.ptx")],
-                       check=True)
-        assert (tmp_path / "k.ptx").stat().st_size > 0
+        src += (f"__global__ void k_{prefix}(float *out, const float *in, int n)\n"
+                "{ int i = blockIdx.x * blockDim.x + threadIdx.x; if (i < n) { float x = in[i]; "
+                f"out[i] = {calls}; }} }}\n")
+    (tmp_path / "k.cu").write_text(src)
+    subprocess.run([nvcc, "--ptx", f"-arch={arch}", "-Werror", "all-warnings", "-I",
+                    str(tmp_path), str(tmp_path / "k.cu"), "-o", str(tmp_path / "k.ptx")],
+                   check=True)
+    ptx = (tmp_path / "k.ptx").read_text()
+    for layout in small_layouts:
+        assert f"k_{layout.replace('-', '_')}" in ptx, layout
 
 
 @pytest.mark.parametrize("std", [pytest.param("CL1.2", marks=pytest.mark.slow), "CL3.0"])
 def test_header_runs_as_opencl_c(std, small_layouts, tmp_path):
-    """Built by the OpenCL device's compiler (PoCL here) and run: equal to Table.lookup within
-    float32 rounding."""
+    """Every layout's header in one OpenCL program, built by the device's compiler (PoCL here),
+    one kernel per table, run: equal to Table.lookup within float32 rounding."""
     import pyopencl as cl
     dev = clbrdf.get_device()
     ctx, queue = dev.context, dev.queue
+    mf = cl.mem_flags
+    src, coords = _headers(small_layouts, tmp_path), {}
     for layout, tables in small_layouts.items():
         prefix = layout.replace("-", "_")
-        save_tables(tables, tmp_path / "tables.h", prefix=prefix)
         rng = np.random.default_rng(2)
         for name, t in tables.items():
-            coords = _coords(t, rng, 64)
+            coords[layout, name] = _coords(t, rng, 64)
             args = ", ".join(f"__global const float *c{d}" for d in range(len(t.axes)))
             call = ", ".join(f"c{d}[i]" for d in range(len(t.axes)))
             nc = len(t.quantity)
-            src = ('#include "tables.h"\n'
-                   f"__kernel void k(__global float *out, {args})\n"
-                   "{ int i = get_global_id(0);\n"
-                   + "".join(f"  out[i * {nc} + {c}] = {prefix}_{name}_lookup({call}"
-                             f"{', ' + str(c) if nc > 1 else ''});\n" for c in range(nc))
-                   + "}\n")
-            prg = cl.Program(ctx, src).build(options=[f"-cl-std={std}", "-I", str(tmp_path),
-                                                      "-Werror"])
-            mf = cl.mem_flags
+            src += (f"__kernel void k_{prefix}_{name}(__global float *out, {args})\n"
+                    "{ int i = get_global_id(0);\n"
+                    + "".join(f"  out[i * {nc} + {c}] = {prefix}_{name}_lookup({call}"
+                              f"{', ' + str(c) if nc > 1 else ''});\n" for c in range(nc))
+                    + "}\n")
+    prg = cl.Program(ctx, src).build(options=[f"-cl-std={std}", "-I", str(tmp_path), "-Werror"])
+    for layout, tables in small_layouts.items():
+        prefix = layout.replace("-", "_")
+        for name, t in tables.items():
+            nc = len(t.quantity)
             bufs = [cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR,
-                              hostbuf=np.ascontiguousarray(c, np.float32)) for c in coords]
+                              hostbuf=np.ascontiguousarray(c, np.float32))
+                    for c in coords[layout, name]]
             out = np.zeros(64 * nc, np.float32)
             ob = cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes)
-            prg.k(queue, (64,), None, ob, *bufs)
+            getattr(prg, f"k_{prefix}_{name}")(queue, (64,), None, ob, *bufs)
             cl.enqueue_copy(queue, out, ob)
-            want = t.lookup(*[np.float32(c).astype(np.float64) for c in coords],
-                             outside="clamp").reshape(-1)
+            want = t.lookup(*[np.float32(c).astype(np.float64) for c in coords[layout, name]],
+                            outside="clamp").reshape(-1)
             assert np.all(np.abs(out - want) <= _float32_bound({name: t}, want)), \
                 (layout, name, np.abs(out - want).max())
 
