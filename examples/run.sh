@@ -87,7 +87,8 @@ else
 fi
 
 if command -v gcc >/dev/null; then
-    "$PY" -m clbrdf table --layout cycles --samples 16384 --out "$OUT/ggx_E.h" \
+    "$PY" -m clbrdf table --layout cycles --only table_ggx_E --only table_ggx_Eavg \
+        --samples 16384 --out "$OUT/ggx_E.h" \
         --out "$OUT/ggx_E.npz" >/dev/null
     gcc -std=c99 -Wall -Wextra -Werror -I "$OUT" "$ROOT"/examples/energy_compensation.c -lm \
         -o "$OUT/energy_compensation"

@@ -248,6 +248,7 @@ FLAGS = {
     "precision": "--precision", "width": "--width", "chunk": "--chunk",
     "report_samples": "--report-samples", "magnitude_tol": "--magnitude-tol",
     "layout": "--layout", "form": "--form", "match_published": "--match-published",
+    "only": "--only",
 }
 
 

@@ -210,9 +210,11 @@ def _table_job(args):
         from ..tables.jobs import layout_job
         # without --estimator, a channel of another model keeps the layout's (Filament's cloth)
         return layout_job(args.layout, samples=args.samples if given else None,
-                          match_published=args.match_published,
+                          match_published=args.match_published, only=args.only,
                           **dict(kw, estimator=None if why and args.estimator != "quadrature"
                                  else args.estimator)), why
+    if args.only:
+        raise ParameterError("--only picks tables of a layout: give it with --layout NAME")
     if args.model is None:
         raise ParameterError("MODEL is required (or --layout NAME)")
     if not args.axis:
@@ -356,6 +358,9 @@ def add_parsers(sub) -> None:
     p.add_argument("--match-published", action="store_true",
                    help="with --layout: each table at its consumer's published sample count "
                         "(Cycles: 2^23 a cell, 10 to 15 minutes here)")
+    p.add_argument("--only", action="append", default=None, metavar="TABLE",
+                   help="with --layout: only this table of the layout (repeat for more; "
+                        "'clbrdf layouts' lists them)")
     p.add_argument("--axis", action="append", default=[],
                    metavar="NAME=START:STOP:COUNT[:SPACING][:PLACEMENT][:min=LO]",
                    help="a grid axis: mu or theta (radians), phi, r (alpha = r^2) or a numeric "

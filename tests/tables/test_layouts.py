@@ -983,10 +983,22 @@ def test_cli_layout_writes_header_and_refuses_bad_input(tmp_path):
          "mu=0.0 is out of range"),
         (["table", "ggx", "--axis", "mu=0.1:1:4", "--axis", "r=0:1:4", "--out",
           str(tmp_path / "x.h")], ":min=LO"),
+        (["table", "--layout", "ue5", "--only", "nope", "--out", str(tmp_path / "x.h")],
+         "--only=nope is not a table of layout ue5"),
+        (["table", "ggx", "--axis", "mu=0.1:1:4", "--only", "E", "--out",
+          str(tmp_path / "x.h")], "--only picks tables of a layout"),
     ]:
         r = run_inprocess(*argv)
         assert r.returncode != 0 and msg in r.stderr, (argv, r.stderr)
     assert not (tmp_path / "x.h").exists()
+    # --only: that table of the layout, with the values of the whole layout's run
+    for only, out in ((["--only", "table_ggx_Eavg"], "avg.npz"), ([], "all.npz")):
+        r = run_inprocess("table", "--layout", "cycles", *only, "-n", "256", "--out",
+                          str(tmp_path / out))
+        assert r.returncode == 0, r.stderr
+    got, want = load_tables(tmp_path / "avg.npz"), load_tables(tmp_path / "all.npz")
+    assert list(got) == ["table_ggx_Eavg"] and len(want) == 8
+    assert np.array_equal(got["table_ggx_Eavg"].raw, want["table_ggx_Eavg"].raw)
 
 
 def test_cli_generic_table_to_header_and_exr(tmp_path):
