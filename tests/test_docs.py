@@ -24,6 +24,14 @@ def test_the_site_builds_with_warnings_as_errors(tmp_path):
         assert name in api, name
 
 
+def test_the_model_docs_are_generated_from_the_descriptions():
+    """docs/models.md's table of every model and the site's Models navigation are what
+    scripts/model_docs.py makes of the descriptions (each names a page that exists)."""
+    r = subprocess.run([sys.executable, str(ROOT / "scripts" / "model_docs.py"), "--check"],
+                       capture_output=True, text=True, cwd=ROOT)
+    assert r.returncode == 0, r.stdout + r.stderr
+
+
 def test_sources_cite_what_the_repository_holds():
     """Comments and docs point at files of the repository: the papers' extracted text and the
     project's working notes (MODELS.md, papers/) live outside it, so a clone lacks them; the

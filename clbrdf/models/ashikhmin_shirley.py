@@ -68,6 +68,7 @@ def configure(opts: dict, given: set):
 
 
 SPEC = ModelSpec(
+    page="models/ashikhmin_shirley.md",
     name="ashikhmin_shirley",
     ref="ashikhmin_shirley",
     title="Ashikhmin-Shirley 2000 anisotropic Phong (specular eq 16, diffuse eq 14)",

@@ -26,6 +26,7 @@ def configure(opts: dict, given: set):
 
 
 SPECS = (ModelSpec(
+    page="models.md#charlie-sheen-charlie",
     name="charlie",
     ref="charlie",
     title="Charlie sheen (Estevez & Kulla 2017)",

@@ -85,6 +85,7 @@ def energy_bound(defines: dict, values: dict, mu):
 def spec(dist: str, title: str, reference: str, facts: Facts) -> ModelSpec:
     return ModelSpec(
         name=f"{dist}_dielectric", title=title, reference=reference, header="dielectric.h",
+        page="models/dielectric.md",
         prefix="dielectric", params=PARAMS, options=OPTIONS, configure_fn=configure(dist),
         notes="alpha_x and alpha_y (instead of alpha) make it anisotropic; eta = 1 is no "
               "interface (all light passes straight through)",

@@ -56,6 +56,7 @@ SWEPT = microfacet.SWEPT
 SHAPE_P = (0.1, 0.2, 0.5, 1.0, 2.0, 3.5, 5.0)     # the stability map's shapes p
 
 HOLZSCHUCH_PACANOWSKI = ModelSpec(
+    page="models/holzschuch_pacanowski.md",
     name="holzschuch_pacanowski",
     ref="holzschuch_pacanowski",
     title="Holzschuch & Pacanowski 2015: diffuse + diffraction + exponential-power reflection",
@@ -76,7 +77,7 @@ HOLZSCHUCH_PACANOWSKI = ModelSpec(
 EXPPOW = microfacet.spec(
     "exppow", "Microfacet, exponential-power distribution (alpha = sigma)",
     "Holzschuch & Pacanowski 2015 eq 18-19 (D), eq 20-21 (Smith Lambda, tabulated), eq 22-23 "
-    "(sampling)",
+    "(sampling)", page="models/holzschuch_pacanowski.md",
     header="dist_exppow.h", shape=P_PARAM, samplers=("ndf",), aniso=False,
     ref="holzschuch_pacanowski",
     facts=Facts(sweeps=((("alpha",), SWEPT), (("p",), SHAPE_P)),

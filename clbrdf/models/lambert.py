@@ -2,6 +2,7 @@
 from .spec import Facts, ModelSpec, Param
 
 SPEC = ModelSpec(
+    page="models.md#lambertian-lambert",
     name="lambert",
     ref="microfacet",
     title="Lambertian",

@@ -67,6 +67,7 @@ SWEPT_B = (1e-6, 1e-2, 1.0, 1e2, 1e4, 1e6, 1e8)
 SWEPT_C = (0.1, 0.5, 0.9, 1 - 1e-4, 1 - 1e-7, 1.0, 1 + 1e-7, 1 + 1e-4, 2.0, 10.0)
 
 LOW_SMOOTH = ModelSpec(
+    page="models/low.md",
     name="low_smooth",
     ref="low",
     title="Löw et al. 2012 smooth-surface model (projected deviation vector, ABC lobe)",
@@ -83,6 +84,7 @@ LOW_SMOOTH = ModelSpec(
 )
 
 LOW_MICROFACET = ModelSpec(
+    page="models/low.md",
     name="low_microfacet",
     ref="low",
     title="Löw et al. 2012 microfacet ABC model (V-cavity G, dielectric Fresnel)",

@@ -116,7 +116,8 @@ def critical_mu(defines: dict, values: dict, channels: int):
 
 def spec(name: str, title: str, reference: str, *, header: str | None = None,
          shape: Param | None = None, samplers=("vndf", "ndf"), aniso: bool = True,
-         ref: str = "microfacet", facts: Facts = Facts()) -> ModelSpec:
+         ref: str = "microfacet", facts: Facts = Facts(),
+         page: str = "models/microfacet.md") -> ModelSpec:
     """A microfacet model with distribution ``name`` (see the module docstring)."""
     params = PARAMS + ((shape,) if shape else ())
     if not aniso:
@@ -131,7 +132,7 @@ def spec(name: str, title: str, reference: str, *, header: str | None = None,
                      prefix="microfacet", params=params, options=options,
                      configure_fn=configure(name, shape.name if shape else None, header, samplers),
                      notes=notes, anisotropic_fn=lambda d, v: d.get("MF_ANISO") == "1",
-                     mu_kinks_fn=critical_mu, ref=ref, facts=facts)
+                     mu_kinks_fn=critical_mu, ref=ref, facts=facts, page=page)
 
 
 GGX = spec("ggx", "Microfacet, GGX (Trowbridge-Reitz) distribution",

@@ -30,7 +30,7 @@ GTR = _with_alpha(spec(
     "gtr", "Microfacet, GTR (generalised Trowbridge-Reitz) distribution, isotropic",
     "Holzschuch & Pacanowski 2015 Table 1 (P22, c); Burley 2012 eq 4; Lambda tabulated "
     "(gamma = 1 closed form)",
-    header="dist_gtr.h",
+    header="dist_gtr.h", page="models/distributions.md",
     shape=Param("gamma", "GTR exponent (2: GGX, 1: Burley's clearcoat)", 0.5, 4.0, 2.0),
     samplers=("ndf",), aniso=False, ref="distributions",
     facts=Facts(sweeps=((("alpha",), (1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 0.999)),
@@ -45,7 +45,7 @@ SGD = _with_alpha(spec(
     "sgd", "Microfacet, shifted gamma distribution (SGD), isotropic",
     "Bagher et al. 2012 eq 6; Holzschuch & Pacanowski 2015 Table 1 (with its 1/pi); "
     "Lambda tabulated",
-    header="dist_sgd.h",
+    header="dist_sgd.h", page="models/distributions.md",
     shape=Param("p", "SGD power p (1 - p is the incomplete gamma's shape)", 0.0, 2.0, 0.5),
     samplers=("ndf",), aniso=False, ref="distributions",
     facts=Facts(sweeps=((("alpha",), (1e-5,) + SWEPT),),
@@ -80,6 +80,7 @@ def _bagher_configure(opts: dict, given: set):
 
 
 SGD_BAGHER = ModelSpec(
+    page="models/distributions.md",
     name="sgd_bagher",
     ref="distributions",
     title="SGD BRDF of Bagher et al. 2012 (the published fits' formula, all parameters per channel)",

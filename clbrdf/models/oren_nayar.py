@@ -37,6 +37,7 @@ def configure(opts: dict, given: set):
 
 
 SPECS = (ModelSpec(
+    page="models/oren_nayar.md",
     name="oren_nayar",
     ref="oren_nayar",
     title="Oren-Nayar diffuse: EON (energy-preserving), FON, QON",

@@ -61,6 +61,7 @@ def configure(opts: dict, given: set):
 
 
 SPEC = ModelSpec(
+    page="models/schlick.md",
     name="schlick",
     ref="schlick",
     title="Schlick 1994 customizable reflectance (SINGLE / DOUBLE, eq 12/15/17/18)",

@@ -188,6 +188,8 @@ class ModelSpec:
     # full name of a module elsewhere (a model registered from outside the package)
     ref: str = ""
     facts: Facts = field(default_factory=Facts)
+    # the model's page of the documentation, relative to docs/ (with an #anchor for a section)
+    page: str = ""
     # directions on the whole sphere (a BSDF that transmits; its header defines P_TRANSMITS 1):
     # wo may be below the surface (mu < 0) and wi on either side; False: a BRDF, which rejects
     # a wo below the horizon and is 0 for a wi below it

@@ -26,6 +26,7 @@ def configure(opts: dict, given: set):
 
 
 SPECS = (ModelSpec(
+    page="models.md#ward-ward",
     name="ward",
     ref="ward",
     title="Ward 1992 anisotropic Gaussian (Walter 2005 sampler)",
