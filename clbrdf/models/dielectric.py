@@ -11,8 +11,8 @@ interface). eta = 1 is no interface: all light passes straight through (a delta 
 """
 import numpy as np
 
-from .microfacet import ROUGH, SWEPT
-from .spec import Facts, ModelSpec, Option, Param, ParameterError, Resolved
+from .microfacet import ROUGH, SWEPT, roughness
+from .spec import Facts, ModelSpec, Option, Param, Resolved
 
 ETA = (0.01, 100.0)
 
@@ -42,13 +42,7 @@ OPTIONS = (
 
 def configure(dist: str):
     def fn(opts: dict, given: set):
-        if {"alpha_x", "alpha_y"} & given:
-            if "alpha" in given:
-                raise ParameterError("give either alpha (isotropic) or alpha_x and alpha_y "
-                                     "(anisotropic), not both")
-            rough = ("alpha_x", "alpha_y")
-        else:
-            rough = ("alpha",)
+        rough = roughness(given)
         o = {"masking": opts.get("masking", "correlated"), "sampler": opts.get("sampler", "vndf"),
              "lobes": opts.get("lobes", "both"), "transport": opts.get("transport", "importance"),
              "eta_one": opts.get("eta_one", "no_interface")}

@@ -55,16 +55,21 @@ FRESNEL_PARAMS = {"one": (), "schlick": ("f0",), "gen_schlick": ("f0", "f90", "e
 FRESNEL_NAMES = ("f0", "f90", "exponent", "f82", "eta", "k")
 
 
+def roughness(given: set) -> tuple:
+    """The roughness parameters the kernel reads: alpha, or alpha_x and alpha_y (anisotropic)
+    where either is given."""
+    if {"alpha_x", "alpha_y"} & given:
+        if "alpha" in given:
+            raise ParameterError("give either alpha (isotropic) or alpha_x and alpha_y "
+                                 "(anisotropic), not both")
+        return ("alpha_x", "alpha_y")
+    return ("alpha",)
+
+
 def configure(dist: str, shape: str | None = None, header: str | None = None,
               samplers=("vndf", "ndf")):
     def fn(opts: dict, given: set):
-        if {"alpha_x", "alpha_y"} & given:
-            if "alpha" in given:
-                raise ParameterError("give either alpha (isotropic) or alpha_x and alpha_y "
-                                     "(anisotropic), not both")
-            rough = ("alpha_x", "alpha_y")
-        else:
-            rough = ("alpha",)
+        rough = roughness(given)
         fresnel = opts.get("fresnel")
         if fresnel is None:
             fresnel = ("conductor" if {"eta", "k"} <= given else "dielectric" if "eta" in given

@@ -29,7 +29,7 @@ from scipy import special
 
 from . import Reference
 from .microfacet import D as D_, Lambda as Lambda_, fresnel
-from .microfacet import halfvector_map
+from .microfacet import halfvector_map, rough
 from .quadrature import (
     gauss01,
     adaptive_gl1,
@@ -65,10 +65,7 @@ class DielectricReference(Reference):
         self.dist = spec.name.split("_")[0]
 
     def rough(self):
-        v = self.params
-        if "alpha_x" in v:
-            return float(v["alpha_x"]), float(v["alpha_y"])
-        return float(v["alpha"]), float(v["alpha"])
+        return rough(self.params)
 
     def D(self, h):
         return D_(self.dist, _up(h), *self.rough())

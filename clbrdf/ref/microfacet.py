@@ -319,6 +319,13 @@ def pdf(model, wo, wi, sampler="brdf", **params):
 # ---------------------------------------------------------------------------------------------
 # Quadrature map of the specular lobe
 
+def rough(params: dict) -> tuple:
+    """(alpha_x, alpha_y) of a model's parameters (alpha for both where isotropic)."""
+    if "alpha_x" in params:
+        return float(params["alpha_x"]), float(params["alpha_y"])
+    return float(params["alpha"]), float(params["alpha"])
+
+
 def halfvector_map(dist, wo, alpha_x, alpha_y):
     """Half vectors by inverting the NDF's CDF, reflected: wi = reflect(wo, h).
 
@@ -460,10 +467,7 @@ class MicrofacetReference(Reference):
         self.reciprocal = self.options.get("masking") != "unshadowed"
 
     def rough(self):
-        v = self.params
-        if "alpha_x" in v:
-            return float(v["alpha_x"]), float(v["alpha_y"])
-        return float(v["alpha"]), float(v["alpha"])
+        return rough(self.params)
 
     def D(self, h):
         return D(self.name, h, *self.rough())

@@ -33,8 +33,6 @@ estimator in a cell the map marks useless or biased.
 """
 from __future__ import annotations
 
-import csv
-import io
 import math
 import time
 import warnings
@@ -51,7 +49,7 @@ from ..models import MODELS, get_spec
 from ..models.choices import ESTIMATORS, MC_ESTIMATORS
 from ..models.spec import MU_MIN
 from ..ref import reference
-from ..tables.outputs import csv_text, write_together
+from .campaign import Campaign, Table as CsvTable, png
 from .check import (
     floor_of,
     resolution,
@@ -295,11 +293,6 @@ def _fmt(v):
         f"1{'-' if v < 1 else '+'}{abs(1 - v):.0e}"
 
 
-def plot(rows: list[dict], fileobj, name: str):
-    """Heat maps of one model (``figure``) as PNG to ``fileobj``."""
-    figure(rows, name).savefig(fileobj, format="png", dpi=90)
-
-
 def figure(rows: list[dict], name: str):
     """Heat maps of one model: per sweep and precision a row of panels, one per estimator and
     sampler; colour log10 relative efficiency, letters the failures (N non-finite, B biased,
@@ -457,42 +450,33 @@ def summary(rows, checks, command, seconds, before=None, samples=SAMPLES,
 def stability_map(models=None, out="stability", *, samples: int = SAMPLES,
                   precisions=("single", "double"), before=None,
                   command: str = "clbrdf.studies.stability.stability_map()", progress=None) -> Path:
-    """Measure and write stability.csv, checks.csv, MODEL.png and README.md to ``out`` (staged:
-    a kill leaves the old files or the new ones). References are taken from ``out``'s earlier
-    stability.csv where it has the cell. ``before``: an earlier stability.csv to compare with."""
+    """Measure and write stability.csv, checks.csv, MODEL.png and README.md to ``out``
+    (clbrdf/studies/campaign.py: a kill leaves the old files or the new ones; the rows of models
+    not measured this time stay). References are taken from ``out``'s earlier stability.csv
+    where it has the cell. ``before``: an earlier stability.csv to compare with."""
     names = [get_spec(n).name for n in (models or list(MODELS))]
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     cache = ref_cache(out / "stability.csv")
-    t0 = time.perf_counter()
-    all_rows, all_checks, charts = [], [], {}
-    for name in names:
+
+    def measure_one(name):
         refs = references(name, samples, cache)
         if progress:
             progress(f"{name}: references")
         rows, checks = measure(name, refs, samples=samples, precisions=precisions,
                                progress=progress)
-        charts[name] = io.BytesIO()
-        plot(rows, charts[name], name)
-        all_rows += rows
-        all_checks += checks
-    kept = [r for r in read_csv(out / "stability.csv") if r["model"] not in names] \
-        if (out / "stability.csv").exists() else []
-    kept_checks = []
-    if (out / "checks.csv").exists():
-        with open(out / "checks.csv", newline="") as f:
-            kept_checks = [c for c in csv.DictReader(f) if c["model"] not in names]
-    all_checks = kept_checks + all_checks
+        return ({"stability.csv": rows, "checks.csv": checks},
+                png(figure(rows, name), dpi=90))
+
     before_rows = read_csv(before) if before else None
     if before_rows:
         _mark_precision_loss(before_rows)        # the rule of this code, for comparison
-    write_together({**{out / f"{n}.png": png.getvalue() for n, png in charts.items()},
-                    out / "stability.csv": csv_text(kept + all_rows, FIELDS),
-                    out / "checks.csv": csv_text(all_checks, CHECK_FIELDS),
-                    out / "README.md": summary(kept + all_rows, all_checks, command,
-                                               time.perf_counter() - t0, before_rows, samples,
-                                               (out / "findings.md").exists())})
-    return out
+
+    def report(tables, cmd, seconds, measured):
+        return summary(tables["stability.csv"], tables["checks.csv"], cmd, seconds, before_rows,
+                       samples, (out / "findings.md").exists())
+    return Campaign({"stability.csv": CsvTable(FIELDS, read_csv),
+                     "checks.csv": CsvTable(CHECK_FIELDS)}, measure_one, report).run(
+        names, out, command)
 
 
 # ---- warnings from the shipped map
