@@ -204,6 +204,15 @@ class ModelSpec:
     # rarer medium (radiance grows by the squared ratio of the indices)
     energy_bound_fn: Callable | None = None
 
+    # The hooks: what the library asks of a model, each a method. A description gives each as
+    # a function (configure_fn, anisotropic_fn, ...) or overrides the method in a subclass.
+
+    def resolve(self, opts: dict, given: set) -> Resolved:
+        """The kernel's configuration for these options and names of the parameters given."""
+        if self.configure_fn is None:
+            return Resolved((), tuple(p.name for p in self.params))
+        return self.configure_fn(opts, given)
+
     def anisotropic(self, cfg: "Config", values: dict) -> bool:
         return bool(self.anisotropic_fn and self.anisotropic_fn(dict(cfg.defines), values))
 
@@ -253,13 +262,10 @@ class ModelSpec:
         if channels not in (1, 3):
             raise ParameterError(f"channels={channels!r} is not valid: choose 1 or 3 (RGB)")
         opts, given = self.split(kwargs)
-        if self.configure_fn is None:
-            r = Resolved((), tuple(p.name for p in self.params))
-        else:
-            r = self.configure_fn(opts, set(given))
-            if not isinstance(r, Resolved):
-                raise TypeError(f"model {self.name}: configure_fn returned {type(r).__name__}, "
-                                f"not clbrdf.models.spec.Resolved")
+        r = self.resolve(opts, set(given))
+        if not isinstance(r, Resolved):
+            raise TypeError(f"model {self.name}: its configuration is a {type(r).__name__}, "
+                            f"not clbrdf.models.spec.Resolved")
         defines, used, resolved, headers = r.defines, r.used, r.options, tuple(r.headers)
         unused = set(given) - set(used)
         if unused:

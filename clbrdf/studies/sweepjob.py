@@ -329,9 +329,8 @@ def energy_bound(job: dict, device, vals: dict, pt, mu) -> np.ndarray:
     own bound (``ModelSpec.energy_bound``: a dielectric in radiance transport, E <= max(1,
     (n_o / n_i)^2))."""
     m = _model(job, device, vals, pt)
-    if m.spec.energy_bound_fn is None:
-        return np.ones((len(pt), 1))
-    return np.asarray(m.spec.energy_bound(m.config, m.params, mu), float).reshape(-1, 1)
+    bound = np.asarray(m.spec.energy_bound(m.config, m.params, mu), float)
+    return np.broadcast_to(bound.reshape(-1, 1), (len(pt), 1))
 
 
 def compute_chunk(job: dict, index: int, device) -> dict:

@@ -50,3 +50,34 @@ def test_argument_order_is_wo_wi_everywhere():
     ref = reference(m)
     np.testing.assert_allclose(m.pdf(WO, WI), ref.pdf(WO, WI), rtol=1e-12)
     assert not np.allclose(m.pdf(WO, WI), m.pdf(WI, WO), rtol=1e-3)
+
+
+def test_hooks_are_methods_a_subclass_overrides():
+    """Each hook (resolve, anisotropic, mu_kinks, energy_bound, deltas) is a method of the
+    description: given as a function or overridden in a subclass; a configuration that is not a
+    Resolved value is refused, naming the model."""
+    import dataclasses
+
+    from clbrdf.models.spec import ModelSpec, Resolved
+    base = MODELS["ward"]
+
+    class Tilted(ModelSpec):
+        def resolve(self, opts, given):
+            r = super().resolve(opts, given)
+            return dataclasses.replace(r, defines=r.defines + (("TILTED", "1"),))
+
+        def energy_bound(self, cfg, values, mu):
+            return np.full(np.shape(mu), 2.0)
+
+    spec = Tilted(**{f.name: getattr(base, f.name) for f in dataclasses.fields(ModelSpec)})
+    cfg, values = spec.configure(alpha_x=0.1, alpha_y=0.3)
+    assert ("TILTED", "1") in cfg.defines and spec.anisotropic(cfg, values)
+    assert np.all(spec.energy_bound(cfg, values, np.array([0.5, 1.0])) == 2.0)
+    assert np.all(base.energy_bound(cfg, values, np.array([0.5, 1.0])) == 1.0)
+
+    class Loose(ModelSpec):
+        def resolve(self, opts, given):
+            return (), ("alpha_x", "alpha_y", "ks"), {}
+    loose = Loose(**{f.name: getattr(base, f.name) for f in dataclasses.fields(ModelSpec)})
+    with pytest.raises(TypeError, match="model ward: its configuration is a tuple"):
+        loose.configure()
