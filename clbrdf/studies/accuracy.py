@@ -29,7 +29,7 @@ from ..models.choices import MC_ESTIMATORS
 from ..ref import reference
 from ..tables.outputs import csv_rows
 from ..version import __version__
-from .campaign import Campaign, Table as CsvTable, measured_note, png
+from .campaign import Campaign, CsvTable, measured_note, png
 
 
 def sharp_cases() -> dict:

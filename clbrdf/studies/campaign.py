@@ -16,7 +16,7 @@ from ..tables.outputs import csv_rows, csv_text, write_together
 
 
 @dataclass(frozen=True)
-class Table:
+class CsvTable:
     """One CSV table of a campaign: its columns, and how its rows are read back (numbers as
     numbers)."""
     fields: tuple
@@ -28,7 +28,7 @@ class Campaign:
     """``measure(model) -> ({CSV name: rows}, chart PNG bytes)``; ``summary(every row by CSV
     name, command, seconds, models measured) -> README.md text``; ``order``: the models'
     order of the tables' rows (else the kept rows, then the measured ones)."""
-    tables: dict                       # CSV name -> Table
+    tables: dict                       # CSV name -> CsvTable
     measure: Callable
     summary: Callable
     order: tuple = field(default=())

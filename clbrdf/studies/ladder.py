@@ -60,7 +60,7 @@ from ..api.model import Model
 from ..models import MODELS, get_spec
 from ..models.spec import ParameterError
 from ..tables.outputs import csv_rows
-from .campaign import Campaign, Table as CsvTable, measured_note, png
+from .campaign import Campaign, CsvTable, measured_note, png
 from .compensation import recommend
 from .fresnel_fits import fit_conductor
 

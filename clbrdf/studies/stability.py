@@ -49,7 +49,7 @@ from ..models import MODELS, get_spec
 from ..models.choices import ESTIMATORS, MC_ESTIMATORS
 from ..models.spec import MU_MIN
 from ..ref import reference
-from .campaign import Campaign, Table as CsvTable, png
+from .campaign import Campaign, CsvTable, png
 from .check import (
     floor_of,
     resolution,

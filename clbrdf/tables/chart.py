@@ -234,8 +234,8 @@ def _rgba(fig) -> np.ndarray:
 
 def figure_png(tables: dict) -> bytes:
     """PNG bytes: the chart of the only table, or the charts of several stacked (each drawn
-    once into pixels and the stack encoded once: a layout of 10 tables took 2.2 s for its
-    figures' PNGs decoded and drawn again into one figure)."""
+    once into pixels and the stack encoded once, not as PNGs decoded and drawn again into one
+    figure: the charts of five layouts' 19 tables 11.6 -> 7.8 s)."""
     from PIL import Image
     imgs = [_rgba(figure(t)) for t in tables.values()]
     w = max(i.shape[1] for i in imgs)

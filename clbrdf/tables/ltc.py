@@ -279,8 +279,8 @@ def magnitudes(m, wo, config: dict, tol: float = MAGNITUDE_TOL):
     floor = max(B_FLOOR if q.precision == "double" else 1e-9, tol * 1e-4)
     tol_b = np.clip(B_RELATIVE * B[:, 0], floor, tol)
     # again only where the first pass is above the new target: elsewhere it met that target
-    # already (a second pass refines along another path to another value within it; 20 % of the
-    # magnitudes' time saved on 16 x 16 GGX and 12 x 12 Charlie grids)
+    # already (a second pass refines along another path to another value within it): GGX 16 x 16
+    # cells 3.6 -> 3.0 s, Charlie 12 x 12 10.1 -> 8.0 s
     again, t_b = np.flatnonzero(B_err[:, 0] > tol_b), 0.0
     if again.size:
         n = len(wo)
